@@ -1,0 +1,85 @@
+"""Export a dataset store to formats other tools read (``tactile-synth export``)."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from shapes.validation import check_choice
+
+from . import store
+
+EXPORT_FORMATS: tuple[str, ...] = ("npz", "csv")
+
+
+def _target(path: Path, out: str | Path | None, fmt: str, overwrite: bool) -> Path:
+    target = Path(out) if out is not None else path.with_suffix(f".{fmt}")
+    if target.exists() and not overwrite:
+        raise FileExistsError(f"{target} exists; pass --overwrite to replace it or choose --out")
+    target.parent.mkdir(parents=True, exist_ok=True)
+    return target
+
+
+def export(
+    path: str | Path, fmt: str, out: str | Path | None = None, *, overwrite: bool = False
+) -> Path:
+    """Write the complete dataset at ``path`` as ``npz`` or ``csv``; returns the file written.
+
+    npz: arrays ``signals (n, 4, T)`` float32, ``shape``, ``material`` (unicode),
+    ``label``, ``condition``, ``trial_index``, ``force_n``, ``speed_mm_s``, ``seed``,
+    ``classes``, ``channels`` and ``attrs_json`` (provenance as JSON text); readable with
+    ``np.load(..., allow_pickle=False)``.
+    csv: one row per (trial, channel): ``trial, shape, material, label, force_n,
+    speed_mm_s, seed, channel`` then ``T`` sample columns ``t0..t{T-1}`` (volts).
+    """
+    path = Path(path)
+    check_choice("format", fmt, EXPORT_FORMATS)
+    data = store.load_dataset(path)  # refuses incomplete stores
+    group, meta = store.open_store(path)
+    target = _target(path, out, fmt, overwrite)
+    tmp = target.with_name(target.name + ".partial")
+    try:
+        if fmt == "npz":
+            with open(tmp, "wb") as fh:
+                np.savez_compressed(
+                    fh,
+                    signals=data.signals,
+                    shape=data.shape.astype(str),
+                    material=data.material.astype(str),
+                    label=data.label,
+                    condition=np.asarray(group["condition"][:]),
+                    trial_index=np.asarray(group["trial_index"][:]),
+                    force_n=data.force_n,
+                    speed_mm_s=data.speed_mm_s,
+                    seed=data.seed,
+                    classes=np.array(data.classes, dtype=str),
+                    channels=np.array(meta["channels"], dtype=str),
+                    attrs_json=np.array(json.dumps(meta, sort_keys=True)),
+                )
+        else:
+            _write_csv(tmp, data, meta["channels"])
+        os.replace(tmp, target)  # a reader never sees a half-written export
+    finally:
+        tmp.unlink(missing_ok=True)
+    return target
+
+
+def _write_csv(tmp: Path, data, channels: list[str]) -> None:
+    n_t = data.signals.shape[2]
+    header = "trial,shape,material,label,force_n,speed_mm_s,seed,channel," + ",".join(
+        f"t{i}" for i in range(n_t)
+    )
+    with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
+        fh.write(header + "\n")
+        for i in range(len(data)):
+            meta = (
+                f"{i},{data.shape[i]},{data.material[i]},{int(data.label[i])},"
+                f"{float(data.force_n[i])!r},{float(data.speed_mm_s[i])!r},{int(data.seed[i])}"
+            )
+            for j, ch in enumerate(channels):
+                # float32 -> 9 significant digits round-trips exactly.
+                samples = ",".join(f"{v:.9g}" for v in data.signals[i, j].tolist())
+                fh.write(f"{meta},{ch},{samples}\n")

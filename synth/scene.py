@@ -1,0 +1,274 @@
+"""The MuJoCo scene, built in code with ``mujoco.MjSpec``: specimen, finger, robot drives.
+
+Bodies (x = sliding direction, z up; the specimen's plate top is z = 0):
+
+- ``specimen`` (mocap): base plate box + the convex pieces of the raised outline. It is
+  kinematic (clamped to the table); its vertical mocap position carries the surface
+  texture under the moving contact (see :mod:`synth.texture`), so texture acts through
+  the contact physics at the cost of one vector per step instead of a fine height field.
+- ``phalanx``: the rigid finger bone on the robot's tip: x and y slide joints held by stiff
+  position servos (the open-loop path), z slide joint pushed by a constant-force motor.
+- ``pad``: the soft skin pad (a sphere with soft contact) on the PDMS support, modelled as
+  spring-damper joints (x, y, z shear/compression and pitch) between pad and phalanx.
+
+Sensors: a force/torque pair at the pad mount (the load the phalanx and its strain gauges
+carry), an accelerometer on the pad (skin vibration), the pad's position, and a contact
+sensor (net force and centroid of the skin-specimen contacts) for ground truth and for
+the load distribution between the two PVDF films.
+"""
+
+from __future__ import annotations
+
+import copy
+import functools
+import json
+import math
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+import shapes
+from shapes import SPECIMEN
+
+from .config import Finger, Motion, SynthConfig
+from .materials import Material
+
+#: Sensor layout of the compiled model: name -> (first column, width) in ``sensordata``.
+SENSORS: tuple[tuple[str, int], ...] = (
+    ("mount_force", 3),
+    ("mount_torque", 3),
+    ("pad_acc", 3),
+    ("pad_pos", 3),
+    ("contact", 10),  # contacts found, net force (3), net torque (3), force centroid (3)
+)
+
+#: Actuators: x position servo, y position servo, z force motor.
+N_CTRL = 3
+#: Control vector per step (MuJoCo's order): the 3 actuator controls, the external wrench
+#: on every body (6 each; the texture's tangential force on the pad), the specimen's
+#: mocap position (its texture height).
+CONTROL_SPEC = (
+    mujoco.mjtState.mjSTATE_CTRL
+    | mujoco.mjtState.mjSTATE_XFRC_APPLIED
+    | mujoco.mjtState.mjSTATE_MOCAP_POS
+)
+
+
+def control_layout(model: mujoco.MjModel) -> dict[str, slice]:
+    """Where each input sits in a :data:`CONTROL_SPEC` vector."""
+    pad = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "pad")
+    xfrc = model.nu + 6 * pad
+    mocap = model.nu + 6 * model.nbody
+    return {
+        "ctrl": slice(0, model.nu),
+        "pad_wrench": slice(xfrc, xfrc + 6),
+        "mocap_pos": slice(mocap, mocap + 3),
+        "size": slice(0, mocap + 3),
+    }
+
+
+STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
+
+
+def sensor_columns() -> dict[str, slice]:
+    cols, start = {}, 0
+    for name, width in SENSORS:
+        cols[name] = slice(start, start + width)
+        start += width
+    return cols
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A compiled base model for one shape, and the indices the simulator needs."""
+
+    shape: str
+    model: mujoco.MjModel
+    specimen_geoms: np.ndarray  # geom ids of plate + pieces
+    skin_geom: int
+    qpos_index: dict[str, int]
+
+    def trial_model(self, material: Material, friction: float, timeconst_s: float):
+        """A copy of the base model with this trial's contact parameters.
+
+        ``friction`` and ``timeconst_s`` already include the per-specimen scatter. MuJoCo
+        combines the two geoms' friction with max() and their solref with solmix weights;
+        the skin carries the same values so the interface is exactly the material's.
+        """
+        m = copy.copy(self.model)
+        geoms = np.append(self.specimen_geoms, self.skin_geom)
+        m.geom_friction[geoms, 0] = friction
+        m.geom_solref[geoms, 0] = timeconst_s
+        m.geom_solref[geoms, 1] = material.contact_dampratio
+        return m
+
+
+def _pad_height(finger: Finger) -> float:
+    """Phalanx origin height that puts the pad's bottom on the plate."""
+    return finger.pad_radius_m
+
+
+def build_spec(shape: str, finger: Finger, motion: Motion) -> mujoco.MjSpec:
+    """The scene as an ``MjSpec`` (before per-trial contact parameters)."""
+    pieces = shapes.convex_pieces(shape) if motion.raised_shape else []
+    spec = mujoco.MjSpec()
+    spec.modelname = f"tactile_{shape}"
+    opt = spec.option
+    opt.timestep = motion.timestep_s
+    # Stiff drives need the implicit-in-velocity integrator; the elliptic cone makes
+    # tangential/normal equal the friction coefficient (MUJOCO-NOTES).
+    opt.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    opt.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    opt.impratio = motion.impratio
+    contact = {"condim": 3, "solimp": list(finger.skin_solimp)}
+
+    world = spec.worldbody
+    specimen = world.add_body(name="specimen", mocap=True)
+    half = [SPECIMEN.base_length_m / 2, SPECIMEN.base_width_m / 2, SPECIMEN.base_thickness_m / 2]
+    specimen.add_geom(
+        name="plate",
+        type=mujoco.mjtGeom.mjGEOM_BOX,
+        size=half,
+        pos=[0, 0, -SPECIMEN.base_thickness_m / 2],
+        rgba=[0.6, 0.6, 0.65, 1],
+        **contact,
+    )
+    for i, piece in enumerate(pieces):
+        spec.add_mesh(
+            name=f"piece{i}",
+            uservert=piece.vertices.ravel().tolist(),
+            userface=piece.faces.ravel().tolist(),
+        )
+        specimen.add_geom(
+            name=f"piece{i}",
+            type=mujoco.mjtGeom.mjGEOM_MESH,
+            meshname=f"piece{i}",
+            rgba=[0.8, 0.5, 0.3, 1],
+            **contact,
+        )
+
+    phalanx = world.add_body(name="phalanx", pos=[0, 0, _pad_height(finger)], gravcomp=1)
+    slide = mujoco.mjtJoint.mjJNT_SLIDE
+    phalanx.add_joint(name="robot_x", type=slide, axis=[1, 0, 0])
+    phalanx.add_joint(name="robot_y", type=slide, axis=[0, 1, 0])
+    phalanx.add_joint(
+        name="robot_z", type=slide, axis=[0, 0, 1], damping=motion.force_loop_damping_n_s_m
+    )
+    side = finger.pad_radius_m * 0.8
+    phalanx.add_geom(
+        name="bone",
+        type=mujoco.mjtGeom.mjGEOM_BOX,
+        size=[side / 2, side / 2, 0.012],
+        pos=[0, 0, finger.pad_radius_m + 0.012],
+        mass=finger.phalanx_mass_kg,
+        contype=0,
+        conaffinity=0,
+        rgba=[0.3, 0.3, 0.35, 1],
+    )
+
+    pad = phalanx.add_body(name="pad", gravcomp=1)
+    m_pad = finger.pad_mass_kg
+    zeta = finger.pdms_damping_ratio
+    for name, axis, k in (
+        ("pdms_x", [1, 0, 0], finger.pdms_shear_stiffness_n_m),
+        ("pdms_y", [0, 1, 0], finger.pdms_shear_stiffness_n_m),
+        ("pdms_z", [0, 0, 1], finger.pdms_normal_stiffness_n_m),
+    ):
+        pad.add_joint(
+            name=name, type=slide, axis=axis, stiffness=k, damping=2 * zeta * math.sqrt(k * m_pad)
+        )
+    inertia_pitch = 0.4 * m_pad * finger.pad_radius_m**2 + m_pad * finger.pad_radius_m**2
+    k_pitch = finger.pdms_pitch_stiffness_nm_rad
+    pad.add_joint(
+        name="pdms_pitch",
+        type=mujoco.mjtJoint.mjJNT_HINGE,
+        axis=[0, 1, 0],
+        pos=[0, 0, finger.pad_radius_m],  # the pad rocks about its mount, above the skin
+        stiffness=k_pitch,
+        damping=2 * zeta * math.sqrt(k_pitch * inertia_pitch),
+    )
+    pad.add_geom(
+        name="skin",
+        type=mujoco.mjtGeom.mjGEOM_SPHERE,
+        size=[finger.pad_radius_m, 0, 0],
+        mass=m_pad,
+        rgba=[0.9, 0.75, 0.65, 1],
+        **contact,
+    )
+    pad.add_site(name="mount", pos=[0, 0, finger.pad_radius_m])
+    pad.add_site(name="pad_center", pos=[0, 0, 0])
+
+    def servo(name: str, joint: str) -> None:
+        act = spec.add_actuator(name=name, target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        act.set_to_position(kp=motion.servo_stiffness_n_m, kv=motion.servo_damping_n_s_m)
+
+    servo("drive_x", "robot_x")
+    servo("drive_y", "robot_y")
+    push = spec.add_actuator(name="push_z", target="robot_z", trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    push.set_to_motor()
+
+    sens = mujoco.mjtSensor
+    site = mujoco.mjtObj.mjOBJ_SITE
+    spec.add_sensor(name="mount_force", type=sens.mjSENS_FORCE, objtype=site, objname="mount")
+    spec.add_sensor(name="mount_torque", type=sens.mjSENS_TORQUE, objtype=site, objname="mount")
+    spec.add_sensor(
+        name="pad_acc", type=sens.mjSENS_ACCELEROMETER, objtype=site, objname="pad_center"
+    )
+    spec.add_sensor(name="pad_pos", type=sens.mjSENS_FRAMEPOS, objtype=site, objname="pad_center")
+    # Skin-specimen contacts reduced to their net force and torque (global frame) and the
+    # force-weighted centroid: intprm = (data flags found|force|torque|pos, reduce=netforce, num).
+    spec.add_sensor(
+        name="contact",
+        type=sens.mjSENS_CONTACT,
+        objtype=mujoco.mjtObj.mjOBJ_GEOM,
+        objname="skin",
+        reftype=mujoco.mjtObj.mjOBJ_BODY,
+        refname="specimen",
+        intprm=[_CONTACT_DATA, _REDUCE_NETFORCE, 1],
+    )
+    return spec
+
+
+# mjtConDataField bits: found 1, force 2, torque 4, dist 8, pos 16; reduce 3 = netforce.
+_CONTACT_DATA = 1 | 2 | 4 | 16
+_REDUCE_NETFORCE = 3
+
+
+@functools.lru_cache(maxsize=64)
+def _scene_cached(shape: str, finger_json: str, motion_json: str) -> Scene:
+    from .params import from_dict
+
+    finger = from_dict(Finger, json.loads(finger_json))
+    motion = from_dict(Motion, json.loads(motion_json))
+    model = build_spec(shape, finger, motion).compile()
+    expected = sum(w for _, w in SENSORS)
+    if model.nsensordata != expected:
+        raise RuntimeError(f"scene sensors: {model.nsensordata} values, expected {expected}")
+    geoms = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "plate")]
+    geoms += [
+        mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"piece{i}") for i in range(model.nmesh)
+    ]
+    qpos_index = {model.joint(j).name: int(model.jnt_qposadr[j]) for j in range(model.njnt)}
+    return Scene(
+        shape=shape,
+        model=model,
+        specimen_geoms=np.asarray(geoms, dtype=np.intp),
+        skin_geom=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "skin"),
+        qpos_index=qpos_index,
+    )
+
+
+def scene(shape: str, config: SynthConfig) -> Scene:
+    """The compiled scene for ``shape`` (cached per shape and finger/motion parameters)."""
+    return _scene_cached(
+        shape,
+        json.dumps(_plain(config.finger), sort_keys=True),
+        json.dumps(_plain(config.motion), sort_keys=True),
+    )
+
+
+def _plain(obj) -> dict:
+    from .params import to_dict
+
+    return to_dict(obj)

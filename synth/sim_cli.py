@@ -1,0 +1,108 @@
+"""``tactile-synth plot-trial`` and ``tactile-synth view``: look at one simulated trial."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+from shapes import SHAPE_NAMES
+
+from .materials import MATERIAL_NAMES
+
+
+def _trial_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--shape", required=True, help=f"one of: {', '.join(SHAPE_NAMES)}")
+    p.add_argument("--material", required=True, help=f"one of: {', '.join(MATERIAL_NAMES)}")
+    p.add_argument("--force", type=float, default=1.0, metavar="N", help="normal force (N)")
+    p.add_argument("--speed", type=float, default=10.0, metavar="MM_S", help="speed (mm/s)")
+    p.add_argument("--seed", type=int, default=0, help="trial seed (default 0)")
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "plot-trial",
+        help="simulate one trial and plot its channels, true forces and finger path",
+    )
+    _trial_args(p)
+    p.add_argument("--out", required=True, metavar="PNG")
+    p.set_defaults(handler=_plot_trial)
+
+    p = subparsers.add_parser(
+        "view", help="open MuJoCo's interactive viewer on one trial's scene (needs a display)"
+    )
+    _trial_args(p)
+    p.set_defaults(handler=_view)
+
+
+def _plot_trial(args: argparse.Namespace) -> int:
+    from .simulator import simulate
+    from .trial_plot import plot_trial
+
+    trial = simulate(
+        args.shape, args.material, force_n=args.force, speed_mm_s=args.speed, seed=args.seed
+    )
+    out = plot_trial(trial, args.out)
+    truth = trial.truth
+    print(
+        f"wrote {out}: {args.shape}/{args.material} at {args.force:g} N, {args.speed:g} mm/s; "
+        f"normal force {truth['normal_force_n'].mean():.3f} N mean, tangential "
+        f"{truth['tangential_force_n'].mean():.3f} N mean"
+    )
+    return 0
+
+
+def display_available() -> bool:
+    """Whether an interactive window can open (X11/Wayland on Linux; macOS and Windows
+    always have a window server)."""
+    if sys.platform.startswith("linux"):
+        return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+    return True
+
+
+def _view(args: argparse.Namespace) -> int:
+    import mujoco
+
+    from .simulator import plan
+    from .trial import TrialSpec
+
+    spec = TrialSpec(args.shape, args.material, args.force, args.speed, args.seed)
+    trial_plan = plan(spec, _config())
+    if not display_available():
+        print(
+            "tactile-synth view: no display (DISPLAY/WAYLAND_DISPLAY unset), so MuJoCo's "
+            "viewer cannot open here. Run it on a machine with a desktop session, or use "
+            f"'tactile-synth plot-trial --shape {args.shape} --material {args.material} "
+            "--out trial.png' to see the trial as a plot.",
+            file=sys.stderr,
+        )
+        return 2
+    import mujoco.viewer
+
+    model = trial_plan.model
+    data = mujoco.MjData(model)
+    data.qpos[:] = trial_plan.initial_qpos
+    steps = trial_plan.control.shape[0]
+    from .scene import CONTROL_SPEC
+
+    with mujoco.viewer.launch_passive(model, data) as viewer:
+        import time
+
+        step = 0
+        while viewer.is_running():
+            start = time.perf_counter()
+            mujoco.mj_setState(model, data, trial_plan.control[step % steps], CONTROL_SPEC)
+            mujoco.mj_step(model, data)
+            step += 1
+            if step % steps == 0:  # replay the trial from its start
+                mujoco.mj_resetData(model, data)
+                data.qpos[:] = trial_plan.initial_qpos
+            viewer.sync()
+            time.sleep(max(0.0, model.opt.timestep - (time.perf_counter() - start)))
+    return 0
+
+
+def _config():
+    from .config import SynthConfig
+
+    return SynthConfig()

@@ -1,0 +1,233 @@
+"""Grids, the Zarr store, resume logic, export/inspect/plot — with a fast fake simulator.
+
+The fake returns deterministic per-spec signals from the spec's seed, so these tests check
+the dataset machinery (order, chunks, done mask, errors) in milliseconds; the real MuJoCo
+simulator is exercised end to end in tests/test_generate.py.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import zarr
+
+import synth.generation as generation
+from synth import CLASS_NAMES, PRESETS, GenerationConfig, load_dataset, store
+from synth.dataset_cli import register  # noqa: F401 - the CLI module must import cleanly
+from synth.export import export
+from synth.presets import load_toml, plan, trial_seed
+from synth.summary import summarize
+
+FAKE_SYNTH = {"fake": True}
+
+
+class FakeSimulator:
+    """Signals from the spec's seed and condition; counts the trials it simulated."""
+
+    def __init__(self, fail_after_chunks: int | None = None) -> None:
+        self.calls: list[int] = []  # trial seeds simulated, in call order
+        self.fail_after_chunks = fail_after_chunks
+
+    def __call__(self, specs, synth, threads):
+        if self.fail_after_chunks is not None and len(self.calls) >= self.fail_after_chunks:
+            raise OSError("No space left on device (simulated)")
+        self.calls.append(len(specs))
+        rows = []
+        for s in specs:
+            rng = np.random.default_rng(s.seed)
+            base = rng.standard_normal((4, 2000)) * s.force_n + s.speed_mm_s
+            rows.append(base.astype(np.float32))
+        return np.stack(rows)
+
+
+@pytest.fixture(autouse=True)
+def _no_real_synth_config(monkeypatch):
+    monkeypatch.setattr(generation, "validate_synth_config", lambda synth: None)
+    monkeypatch.setattr(generation, "default_synth_config", lambda: dict(FAKE_SYNTH))
+
+
+def tiny(**changes) -> GenerationConfig:
+    base = dict(
+        preset="custom",
+        shapes=("square", "circle"),
+        materials=("wood",),
+        trials_per_class=3,
+        forces_n=(1.0, 1.4),
+        chunk_trials=4,
+    )
+    return GenerationConfig(**{**base, **changes})
+
+
+def run(config, out, sim=None, **kw):
+    return generation.generate(
+        config, out, workers=1, progress=False, simulator=sim or FakeSimulator(), **kw
+    )
+
+
+# -- grids -----------------------------------------------------------------------------
+def test_presets_have_the_issue_sizes():
+    assert PRESETS["quick"].n_trials == 36 * 4
+    assert PRESETS["paper"].n_trials == 2160
+    pert = PRESETS["perturbation"]
+    assert len(pert.conditions) == 8 and (1.0, 10.0) not in pert.conditions
+    assert pert.n_trials == 8 * 36 * 10
+
+
+def test_config_is_canonical_and_validated():
+    cfg = tiny()
+    assert cfg.shapes == ("circle", "square")  # paper order, whatever the input order
+    assert GenerationConfig.from_dict(json.loads(json.dumps(cfg.to_dict()))) == cfg
+    for bad, word in [
+        (dict(shapes=("circel",)), "did you mean 'circle'"),
+        (dict(materials=("wood", "wood")), "twice"),
+        (dict(trials_per_class=0), "trials_per_class"),
+        (dict(forces_n=(-1.0,)), "forces_n"),
+        (dict(forces_n=(1.0,), speeds_mm_s=(10.0,), include_nominal=False), "empty"),
+    ]:
+        with pytest.raises(ValueError, match=word):
+            tiny(**bad)
+    with pytest.raises(ValueError, match="generation config key"):
+        GenerationConfig.from_dict({"trials": 3})
+
+
+def test_toml_grid(tmp_path):
+    path = tmp_path / "grid.toml"
+    path.write_text('preset = "perturbation"\nshapes = ["moon"]\ntrials_per_class = 2\n')
+    cfg = load_toml(path)
+    assert cfg.shapes == ("moon",) and cfg.trials_per_class == 2 and len(cfg.conditions) == 8
+    path.write_text("shapes = [")
+    with pytest.raises(ValueError, match="not valid TOML"):
+        load_toml(path)
+
+
+def test_seeds_do_not_depend_on_the_rest_of_the_grid():
+    small = plan(tiny(shapes=("square",)))
+    big = plan(tiny(shapes=("square", "circle", "moon")))
+    key = lambda p: {  # noqa: E731
+        (int(p.label[i]), float(p.force_n[i]), int(p.trial_index[i])): int(p.seed[i])
+        for i in range(len(p))
+    }
+    small_seeds, big_seeds = key(small), key(big)
+    assert all(big_seeds[k] == v for k, v in small_seeds.items())
+    assert len(set(big_seeds.values())) == len(big_seeds)  # no two trials share a seed
+    assert small_seeds[(CLASS_NAMES.index("square/wood"), 1.4, 2)] == trial_seed(
+        0, CLASS_NAMES.index("square/wood"), 1.4, 10.0, 2
+    )
+
+
+# -- the store -------------------------------------------------------------------------
+def test_store_round_trip_and_plain_zarr(tmp_path):
+    out = run(tiny(), tmp_path / "ds")
+    data = load_dataset(out)
+    cfg = tiny()
+    assert len(data) == cfg.n_trials == 12
+    assert data.signals.dtype == np.float32 and data.signals.shape == (12, 4, 2000)
+    # canonical order: condition-major, then class (paper order), then trial index
+    assert list(data.force_n) == [1.0] * 6 + [1.4] * 6
+    assert list(data.shape[:6]) == ["circle"] * 3 + ["square"] * 3
+    assert [data.classes[i] for i in data.label[:4]] == ["circle/wood"] * 3 + ["square/wood"]
+    # each row is its own spec's signals (fake: seed + condition)
+    rng = np.random.default_rng(int(data.seed[7]))
+    expect = (rng.standard_normal((4, 2000)) * 1.4 + 10.0).astype(np.float32)
+    np.testing.assert_array_equal(data.signals[7], expect)
+    attrs = data.attrs
+    assert attrs["format_version"] == store.FORMAT_VERSION and attrs["complete"]
+    assert attrs["config"]["synth"] == FAKE_SYNTH and attrs["mujoco_version"]
+    assert GenerationConfig.from_dict(attrs["config"]) == cfg.replace(synth=FAKE_SYNTH)
+    group = zarr.open_group(out, mode="r")
+    np.testing.assert_array_equal(group["signals"][:], data.signals)
+    assert group["signals"].chunks == (4, 4, 2000)
+    assert list(group["done"][:]) == [1, 1, 1]
+    assert (out / "signals" / "c" / "2" / "0" / "0").is_file()  # the layout write_chunk fsyncs
+
+
+def test_interrupted_run_resumes_without_recomputing(tmp_path):
+    ref = load_dataset(run(tiny(), tmp_path / "ref"))
+    out = tmp_path / "ds"
+    with pytest.raises(OSError, match="No space"):
+        run(tiny(), out, FakeSimulator(fail_after_chunks=1))
+    with pytest.raises(ValueError, match=r"incomplete \(1/3 chunks done\).*--resume"):
+        load_dataset(out)
+    partial = load_dataset(out, allow_incomplete=True)
+    assert len(partial) == 4 and not partial.attrs["complete"]
+    np.testing.assert_array_equal(partial.signals, ref.signals[:4])
+    assert "NO: 1/3 chunks" in summarize(out)
+    # a torn chunk: data file present but never marked done -> not data, redone on resume
+    group = zarr.open_group(out, mode="r+")
+    group["signals"][4:8] = np.full((4, 4, 2000), 7.0, np.float32)
+    (out / "signals" / "c" / "2.0.0.deadbeef.partial").write_bytes(b"torn")
+    assert len(load_dataset(out, allow_incomplete=True)) == 4
+    sim = FakeSimulator()
+    run(None, out, sim, resume=True)
+    assert sim.calls == [4, 4]  # only the two unfinished chunks
+    assert not list(out.rglob("*.partial"))
+    done = load_dataset(out)
+    np.testing.assert_array_equal(done.signals, ref.signals)
+    np.testing.assert_array_equal(done.seed, ref.seed)
+
+
+def test_user_errors_leave_disk_untouched(tmp_path):
+    out = run(tiny(), tmp_path / "ds")
+    before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    with pytest.raises(FileExistsError, match=r"--resume.*--overwrite"):
+        run(tiny(), out)
+    with pytest.raises(ValueError, match=r"different configuration.*seed"):
+        run(tiny(seed=1), out, resume=True)
+    with pytest.raises(ValueError, match="exclude each other"):
+        run(tiny(), out, resume=True, overwrite=True)
+    assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+    # --overwrite never deletes something that is not a dataset
+    folder = tmp_path / "papers"
+    folder.mkdir()
+    (folder / "thesis.tex").write_text("precious")
+    with pytest.raises(FileExistsError, match="not a tactile-synth dataset"):
+        run(tiny(), folder, overwrite=True)
+    assert (folder / "thesis.tex").read_text() == "precious"
+
+
+def test_incompatible_format_version(tmp_path):
+    out = run(tiny(), tmp_path / "ds")
+    group = zarr.open_group(out, mode="r+")
+    meta = dict(group.attrs[store.ATTR_KEY])
+    meta["format_version"] = 99
+    group.attrs[store.ATTR_KEY] = meta
+    with pytest.raises(ValueError, match=r"format version 99.*reads version 1"):
+        load_dataset(out)
+    with pytest.raises(ValueError, match="format version 99"):
+        run(None, out, resume=True)
+
+
+# -- export, inspect, plot ---------------------------------------------------------------
+def test_export_npz_and_csv(tmp_path):
+    out = run(tiny(), tmp_path / "ds")
+    data = load_dataset(out)
+    npz = export(out, "npz")
+    with np.load(npz, allow_pickle=False) as z:
+        np.testing.assert_array_equal(z["signals"], data.signals)
+        assert list(z["shape"]) == list(data.shape)
+        assert json.loads(str(z["attrs_json"]))["config"]["seed"] == 0
+    with pytest.raises(FileExistsError, match="--overwrite"):
+        export(out, "npz")
+    csv = export(out, "csv", tmp_path / "x.csv")
+    lines = csv.read_text().splitlines()
+    assert len(lines) == 1 + 12 * 4
+    row = lines[1 + 5 * 4 + 2].split(",")  # trial 5, channel sg1
+    assert row[0] == "5" and row[7] == "sg1"
+    np.testing.assert_array_equal(np.array(row[8:], dtype=np.float32), data.signals[5, 2])
+    with pytest.raises(ValueError, match="format must be one of npz, csv"):
+        export(out, "hdf5")
+
+
+def test_inspect_and_plot(tmp_path):
+    out = run(tiny(), tmp_path / "ds")
+    text = summarize(out)
+    assert "complete   yes: 3/3 chunks, 12/12 trials" in text
+    assert "1N 10mm/s" in text and "1.4N 10mm/s" in text
+    assert any(line.split() == ["square/wood", "3", "3"] for line in text.splitlines())
+    assert "sg2" in text.splitlines()[-1]
+    from synth.plot import plot_examples
+
+    png = plot_examples(out, tmp_path / "ex.png")
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
