@@ -1,0 +1,136 @@
+"""The one interface every few-shot method implements (AFOP-ML and all baselines).
+
+Life cycle, as in the paper: ``fit`` once on the source (training) classes, then
+``predict_episodes`` adapts to each episode's support set and labels its queries.
+Episodes are passed as index arrays into a pool of trials, so a method can batch
+hundreds of episodes into one tensor problem and features are computed once per pool.
+
+Query labels never reach a method: the evaluator keeps them. Support labels are
+implicit in the layout: ``support[e, n, :]`` are the K examples of episode-class ``n``.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import ClassVar, Self
+
+import numpy as np
+
+
+class NotFittedError(RuntimeError):
+    """``predict_episodes`` was called before ``fit``."""
+
+
+def _check_index_array(arg: str, value: object, ndim: int, n_pool: int) -> np.ndarray:
+    arr = np.asarray(value)
+    if arr.ndim != ndim or not np.issubdtype(arr.dtype, np.integer):
+        raise ValueError(
+            f"{arg} must be an integer array with {ndim} dimensions; got "
+            f"dtype {arr.dtype} and shape {arr.shape}"
+        )
+    if arr.size and (arr.min() < 0 or arr.max() >= n_pool):
+        raise ValueError(
+            f"{arg} indexes a pool of {n_pool} trials: values must lie in "
+            f"0..{n_pool - 1}; got {arr.min()}..{arr.max()}"
+        )
+    return arr.astype(np.intp, copy=False)
+
+
+def check_episodes(support: object, query: object, n_pool: int) -> tuple[np.ndarray, np.ndarray]:
+    """Validate an episode batch: ``support`` ``(E, N, K)``, ``query`` ``(E, M)``.
+
+    Rejects N < 2, K < 1, a trial used twice within one episode's support set, and a
+    query that is also a support example of its episode.
+    """
+    s = _check_index_array("support", support, 3, n_pool)
+    q = _check_index_array("query", query, 2, n_pool)
+    e, n_way, k_shot = s.shape
+    if n_way < 2:
+        raise ValueError(f"support must hold N >= 2 classes per episode; got N={n_way}")
+    if k_shot < 1:
+        raise ValueError(f"support must hold K >= 1 examples per class; got K={k_shot}")
+    if q.shape[0] != e:
+        raise ValueError(f"query must have one row per episode ({e}); got {q.shape[0]}")
+    flat = np.sort(s.reshape(e, -1), axis=1)
+    if np.any(flat[:, 1:] == flat[:, :-1]):
+        raise ValueError("support uses the same trial twice within one episode")
+    if q.size and np.any((q[:, :, None] == s.reshape(e, 1, -1)).any(axis=2)):
+        raise ValueError("query contains a trial that is also in its episode's support set")
+    return s, q
+
+
+class FewShotMethod(ABC):
+    """Base class: subclasses set ``name`` and implement ``_fit`` and ``_predict``.
+
+    Parameters are set only in ``__init__``; learned attributes end in ``_``.
+    ``features`` arguments are the raw (unscaled) 386-feature pool of
+    :func:`models.features.extract` for the same trials, passed when the caller has
+    already computed them; methods that need them compute them when ``None``.
+    """
+
+    name: ClassVar[str]
+
+    def __init__(self, *, seed: int = 0) -> None:
+        self.seed = seed
+        self.fitted_ = False
+
+    def fit(
+        self, signals: np.ndarray, labels: np.ndarray, *, features: np.ndarray | None = None
+    ) -> Self:
+        """Offline training on the source classes.
+
+        signals: float32 ``(n, 4, T)``; labels: int ``(n,)`` class ids; features: ``(n, 386)``.
+        """
+        signals = np.asarray(signals)
+        labels = np.asarray(labels)
+        if signals.ndim != 3:
+            raise ValueError(f"signals must have shape (n, channels, T); got {signals.shape}")
+        if labels.shape != (signals.shape[0],):
+            raise ValueError(f"labels must have shape ({signals.shape[0]},); got {labels.shape}")
+        if np.unique(labels).size < 2:
+            raise ValueError("fit needs trials of at least 2 classes")
+        if features is not None and np.asarray(features).shape[0] != signals.shape[0]:
+            raise ValueError("features must have one row per trial of signals")
+        self._fit(signals, labels, features)
+        self.fitted_ = True
+        return self
+
+    def predict_episodes(
+        self,
+        signals: np.ndarray,
+        support: np.ndarray,
+        query: np.ndarray,
+        *,
+        features: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """Adapt to each episode's support set and label its queries.
+
+        signals: ``(P, 4, T)`` the pool; support: int ``(E, N, K)``; query: int ``(E, M)``.
+        Returns int ``(E, M)`` predictions in ``0..N-1`` (episode-class positions).
+        """
+        if not getattr(self, "fitted_", False):
+            raise NotFittedError(f"{self.name}: call fit() before predict_episodes()")
+        signals = np.asarray(signals)
+        s, q = check_episodes(support, query, signals.shape[0])
+        if features is not None and np.asarray(features).shape[0] != signals.shape[0]:
+            raise ValueError("features must have one row per trial of signals")
+        pred = np.asarray(self._predict(signals, s, q, features))
+        if pred.shape != q.shape:
+            raise RuntimeError(
+                f"{self.name} returned predictions of shape {pred.shape}, expected {q.shape}"
+            )
+        return pred
+
+    @abstractmethod
+    def _fit(self, signals: np.ndarray, labels: np.ndarray, features: np.ndarray | None) -> None:
+        """Learn from the source classes (inputs already validated)."""
+
+    @abstractmethod
+    def _predict(
+        self,
+        signals: np.ndarray,
+        support: np.ndarray,
+        query: np.ndarray,
+        features: np.ndarray | None,
+    ) -> np.ndarray:
+        """Return ``(E, M)`` predictions (inputs already validated)."""

@@ -1,0 +1,55 @@
+"""Direct-Prot-ML (paper Sec. V): all 386 z-scored features straight into the
+prototypical head (no NCA ranking, no D-scan), adapted per episode like AFOP-ML's head."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import FewShotMethod
+from .features import N_FEATURES, pool_of
+from .prototypes import adapt_cosine_head
+from .scaling import FeatureScaler
+
+
+class DirectProtML(FewShotMethod):
+    """Learned: ``scaler_`` (training-set z-scoring); ``feature_dim_`` = 386."""
+
+    name = "Direct-Prot-ML"
+
+    def __init__(
+        self,
+        *,
+        seed: int = 0,
+        steps: int = 250,
+        lr: float = 1.5e-3,
+        lam: float = 0.10,
+        alpha: float = 10.0,
+    ) -> None:
+        super().__init__(seed=seed)
+        self.steps = steps
+        self.lr = lr
+        self.lam = lam
+        self.alpha = alpha
+
+    def _fit(self, signals: np.ndarray, labels: np.ndarray, features: np.ndarray | None) -> None:
+        raw = pool_of(signals, features)
+        self.scaler_ = FeatureScaler().fit(raw)
+        self.feature_dim_ = N_FEATURES
+
+    def _predict(
+        self,
+        signals: np.ndarray,
+        support: np.ndarray,
+        query: np.ndarray,
+        features: np.ndarray | None,
+    ) -> np.ndarray:
+        raw = pool_of(signals, features)
+        return adapt_cosine_head(
+            self.scaler_.transform(raw),
+            support,
+            query,
+            steps=self.steps,
+            lr=self.lr,
+            lam=self.lam,
+            alpha=self.alpha,
+        )
