@@ -1,0 +1,364 @@
+"""The report's PNG figures (matplotlib, Agg backend; no display needed).
+
+Each function takes results.json records (or arrays) and a path, writes one PNG and
+returns the path. Figures follow the paper: Fig. 5 (generalisation curves with the
+closed-set curve dashed), Fig. 6 (median D and sensor shares), Fig. 7 (t-SNE), plus the
+D-scan curve, the perturbation heat map and example signals per class.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from shapes import SHAPE_NAMES
+from synth import CHANNELS, MATERIAL_NAMES, SAMPLE_RATE_HZ, Dataset
+
+from .splits import parse_condition
+
+#: Panel order and titles of Fig. 5.
+GENERALISATION_PANELS: tuple[tuple[str, str | None, str], ...] = (
+    ("cross-shape", None, "(a) Cross-shape"),
+    ("cross-material", None, "(b) Cross-material"),
+    ("perturbation", "pooled", "(c) Force-speed perturbation (pooled)"),
+)
+#: Bar order of Fig. 6 (the paper's: Shape, Closed-set, Force&Speed, Material).
+SELECTION_ORDER: tuple[tuple[str, str], ...] = (
+    ("cross-shape", "Shape"),
+    ("closed-set", "Closed-set"),
+    ("perturbation", "Force&Speed"),
+    ("cross-material", "Material"),
+)
+METHOD_COLOURS: dict[str, str] = {
+    "AFOP-ML": "tab:blue",
+    "AFO-MLP-ML": "tab:orange",
+    "Direct-Prot-ML": "tab:green",
+    "MAML": "tab:red",
+    "CWT-ResNet-ML": "tab:purple",
+    "CNN": "tab:brown",
+    "BiLSTM": "tab:pink",
+}
+#: One marker per shape in SHAPE_NAMES order, resembling the outline where one exists.
+SHAPE_MARKERS: tuple[str, ...] = ("o", "8", "P", "h", "X", "<", "p", "*", "D", "s", ">", "^")
+MATERIAL_COLOURS: dict[str, str] = {
+    "resin": "tab:blue",
+    "wood": "tab:olive",
+    "aluminum": "tab:gray",
+}
+DPI = 120
+#: The nominal condition of the paper (Section III), absent from the perturbation grid.
+NOMINAL_FORCE_N = 1.0
+NOMINAL_SPEED_MM_S = 10.0
+
+
+def _save(fig: plt.Figure, path: str | Path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=DPI, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
+def _curve(records: Sequence[dict], **match: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    rs = [
+        r
+        for r in records
+        if r.get("record") == "accuracy" and all(r.get(k) == v for k, v in match.items())
+    ]
+    rs.sort(key=lambda r: r["way"])
+    way = np.array([r["way"] for r in rs])
+    acc = np.array([r["accuracy"] for r in rs]) * 100
+    ci = np.array([r["ci95"] for r in rs]) * 100
+    return way, acc, ci
+
+
+def dscan_curve(dscan: Mapping[str, Sequence[float]], chosen_d: int, path: str | Path) -> Path:
+    """AFOP-ML's D-scan: validation accuracy vs D with its 95 % CI band; chosen D marked."""
+    d = np.asarray(dscan["D"])
+    mean = np.asarray(dscan["mean"]) * 100
+    ci = np.asarray(dscan["ci95"]) * 100
+    fig, ax = plt.subplots(figsize=(6, 3.6))
+    ax.plot(d, mean, color="tab:blue", lw=1.5, label="validation accuracy")
+    ax.fill_between(d, mean - ci, mean + ci, color="tab:blue", alpha=0.25, label="95% CI")
+    ax.axvline(chosen_d, color="k", ls="--", lw=1, label=f"chosen D = {chosen_d}")
+    ax.set_xlabel("number of top-ranked features D")
+    ax.set_ylabel("accuracy (%)")
+    ax.set_title("AFOP-ML D-scan (closed-set training data)")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="lower right", fontsize=8)
+    return _save(fig, path)
+
+
+def generalisation_curves(records: Sequence[dict], path: str | Path) -> Path:
+    """Fig. 5: 1-shot accuracy vs N-way per protocol, one line + 95 % CI band per method,
+    the closed-set AFOP-ML curve (``protocol="closed-set", condition="reference"``) dashed.
+    Uses the across-fold records (``fold=None``)."""
+    methods = list(dict.fromkeys(r["method"] for r in records if r.get("record") == "accuracy"))
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.2), sharey=True)
+    ref = _curve(records, protocol="closed-set", condition="reference", shot=1)
+    for ax, (protocol, condition, title) in zip(axes, GENERALISATION_PANELS, strict=True):
+        for m in methods:
+            way, acc, ci = _curve(
+                records, protocol=protocol, condition=condition, method=m, fold=None, shot=1
+            )
+            if way.size == 0:
+                continue
+            c = METHOD_COLOURS.get(m)
+            ax.plot(way, acc, marker="o", ms=3, lw=1.4, color=c, label=m)
+            ax.fill_between(way, acc - ci, acc + ci, color=c, alpha=0.2)
+        if ref[0].size:
+            ax.plot(ref[0], ref[1], "k--", lw=1.3, label="closed-set AFOP-ML")
+        ax.set_title(title)
+        ax.set_xlabel("N-way (1-shot)")
+        ax.set_xticks(range(2, 13))
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("accuracy (%)")
+    handles, labels = axes[0].get_legend_handles_labels()
+    for ax in axes[1:]:
+        for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
+            if lab not in labels:
+                handles.append(h)
+                labels.append(lab)
+    fig.legend(
+        handles,
+        labels,
+        loc="lower center",
+        ncol=min(len(labels), 8),
+        fontsize=8,
+        bbox_to_anchor=(0.5, -0.08),
+    )
+    return _save(fig, path)
+
+
+def perturbation_heatmap(
+    records: Sequence[dict],
+    path: str | Path,
+    *,
+    methods: Sequence[str] = ("AFOP-ML",),
+    way: int = 5,
+    nominal_method: str = "AFOP-ML",
+) -> Path:
+    """5-way-1-shot accuracy over the force x speed grid, one panel per method.
+
+    The perturbation dataset leaves out the nominal condition; where the grid has a hole
+    at 1 N / 10 mm/s, the AFOP-ML panel shows the closed-set reference (nominal test half,
+    ``condition="reference"``) there, labelled "nominal", for comparison.
+    """
+    nominal = next(
+        (
+            r
+            for r in records
+            if r.get("record") == "accuracy"
+            and r["protocol"] == "closed-set"
+            and r["condition"] == "reference"
+            and r["way"] == way
+        ),
+        None,
+    )
+    panels = []
+    for m in methods:
+        cells = {}
+        for r in records:
+            if (
+                r.get("record") == "accuracy"
+                and r["protocol"] == "perturbation"
+                and r["method"] == m
+                and r["way"] == way
+                and r["shot"] == 1
+            ):
+                fs = parse_condition(r["condition"])
+                if fs is not None:
+                    cells[fs] = r
+        if cells:
+            panels.append((m, cells))
+    if not panels:
+        raise ValueError("no per-condition perturbation records to draw")
+    fig, axes = plt.subplots(
+        1, len(panels), figsize=(5.2 * len(panels), 4.0), squeeze=False, layout="constrained"
+    )
+    for ax, (m, cells) in zip(axes[0], panels, strict=True):
+        forces = sorted({f for f, _ in cells})
+        speeds = sorted({s for _, s in cells})
+        hole = (NOMINAL_FORCE_N, NOMINAL_SPEED_MM_S)
+        if m == nominal_method and nominal is not None and hole not in cells:
+            if hole[0] in forces and hole[1] in speeds:
+                cells = {**cells, hole: {**nominal, "nominal": True}}
+        grid = np.full((len(forces), len(speeds)), np.nan)
+        for (f, s), r in cells.items():
+            grid[forces.index(f), speeds.index(s)] = r["accuracy"] * 100
+        im = ax.imshow(
+            grid, origin="lower", cmap="viridis", vmin=100 / way, vmax=100, aspect="auto"
+        )
+        for i in range(len(forces)):
+            for j in range(len(speeds)):
+                if not np.isfinite(grid[i, j]):
+                    ax.text(j, i, "not in grid", ha="center", va="center", fontsize=7)
+                    continue
+                r = cells[(forces[i], speeds[j])]
+                tag = "nominal\n(closed-set)\n" if r.get("nominal") else ""
+                ax.text(
+                    j,
+                    i,
+                    f"{tag}{grid[i, j]:.1f}\n±{r['ci95'] * 100:.1f}",
+                    ha="center",
+                    va="center",
+                    fontsize=7,
+                    color="w" if grid[i, j] < 70 else "k",
+                )
+        ax.set_xticks(range(len(speeds)), [f"{s:g}" for s in speeds])
+        ax.set_yticks(range(len(forces)), [f"{f:g}" for f in forces])
+        ax.set_xlabel("sliding speed (mm/s)")
+        ax.set_ylabel("normal force (N)")
+        ax.set_title(f"{m}: {way}-way-1-shot accuracy (%)", fontsize=9)
+        fig.colorbar(im, ax=ax, fraction=0.046)
+    return _save(fig, path)
+
+
+def selection_bars(records: Sequence[dict], path: str | Path) -> Path:
+    """Fig. 6: median chosen D per protocol (bars, left axis) and the PVDF / SG shares of
+    the selected features (lines, right axis), medians over folds/splits."""
+    labels, med_d, pvdf, sg, n = [], [], [], [], []
+    for protocol, label in SELECTION_ORDER:
+        rs = [r for r in records if r.get("record") == "selection" and r["protocol"] == protocol]
+        if not rs:
+            continue
+        labels.append(label)
+        med_d.append(float(np.median([r["D"] for r in rs])))
+        pvdf.append(float(np.median([r["pvdf_share"] for r in rs])) * 100)
+        sg.append(float(np.median([r["sg_share"] for r in rs])) * 100)
+        n.append(len(rs))
+    if not labels:
+        raise ValueError("no selection records to draw")
+    fig, ax = plt.subplots(figsize=(6, 3.8))
+    x = np.arange(len(labels))
+    bars = ax.bar(x, med_d, color="tab:blue", alpha=0.7, label="median D")
+    for b, d, k in zip(bars, med_d, n, strict=True):
+        ax.text(
+            b.get_x() + b.get_width() / 2,
+            d,
+            f"{d:g}\n(n={k})",
+            ha="center",
+            va="bottom",
+            fontsize=8,
+        )
+    ax.set_xticks(x, labels)
+    ax.set_ylabel("median selected D")
+    ax.set_ylim(0, max(med_d) * 1.35 + 1)
+    ax2 = ax.twinx()
+    ax2.plot(x, pvdf, "o-", color="tab:red", label="PVDF share")
+    ax2.plot(x, sg, "s--", color="tab:green", label="SG share")
+    ax2.set_ylim(0, 105)
+    ax2.set_ylabel("share of selected features (%)")
+    h1, l1 = ax.get_legend_handles_labels()
+    h2, l2 = ax2.get_legend_handles_labels()
+    ax.legend(h1 + h2, l1 + l2, loc="upper left", fontsize=8)
+    ax.set_title("AFOP-ML: adaptive D and sensor contributions")
+    return _save(fig, path)
+
+
+def tsne_scatter(
+    emb: np.ndarray,
+    shape: np.ndarray,
+    material: np.ndarray,
+    indicators: Mapping[str, float],
+    path: str | Path,
+    *,
+    d: int,
+) -> Path:
+    """Fig. 7: t-SNE ``(n, 2)`` scatter, marker = shape, colour = material."""
+    fig, ax = plt.subplots(figsize=(7.5, 6))
+    for s_i, s in enumerate(SHAPE_NAMES):
+        for m in MATERIAL_NAMES:
+            sel = (shape == s) & (material == m)
+            if np.any(sel):
+                ax.scatter(
+                    emb[sel, 0],
+                    emb[sel, 1],
+                    marker=SHAPE_MARKERS[s_i],
+                    s=22,
+                    color=MATERIAL_COLOURS[m],
+                    alpha=0.75,
+                    linewidths=0.3,
+                    edgecolors="k",
+                )
+    shape_handles = [
+        plt.Line2D([], [], marker=SHAPE_MARKERS[i], ls="", color="k", label=f"S{i + 1} {s}")
+        for i, s in enumerate(SHAPE_NAMES)
+        if np.any(shape == s)
+    ]
+    mat_handles = [
+        plt.Line2D([], [], marker="o", ls="", color=MATERIAL_COLOURS[m], label=m)
+        for m in MATERIAL_NAMES
+        if np.any(material == m)
+    ]
+    ax.legend(
+        handles=shape_handles + mat_handles,
+        fontsize=7,
+        loc="center left",
+        bbox_to_anchor=(1.01, 0.5),
+    )
+    ax.set_title(
+        f"t-SNE of closed-set top-{d} features\n"
+        f"1-NN={indicators['nn1_shape_accuracy']:.3f}  mix-sil={indicators['mix_sil']:.3f}  "
+        f"DGI={indicators['dgi']:.3f}",
+        fontsize=10,
+    )
+    ax.set_xticks([])
+    ax.set_yticks([])
+    return _save(fig, path)
+
+
+def example_signals(data: Dataset, path: str | Path) -> Path:
+    """One trial per class (the first of each): 12 shapes (rows) x 3 materials (columns),
+    the 4 channels each min-max scaled and stacked with an offset."""
+    fig, axes = plt.subplots(
+        len(SHAPE_NAMES),
+        len(MATERIAL_NAMES),
+        figsize=(10, 17),
+        sharex=True,
+        sharey=True,
+        layout="constrained",
+    )
+    colours = ("tab:red", "tab:orange", "tab:blue", "tab:cyan")
+    for i, s in enumerate(SHAPE_NAMES):
+        for j, m in enumerate(MATERIAL_NAMES):
+            ax = axes[i, j]
+            idx = np.flatnonzero((data.shape == s) & (data.material == m))
+            if idx.size:
+                sig = data.signals[idx[0]].astype(np.float64)
+                t = np.arange(sig.shape[1]) / SAMPLE_RATE_HZ
+                for c in range(sig.shape[0]):
+                    x = sig[c]
+                    span = x.max() - x.min()
+                    x = (x - x.min()) / (span if span > 0 else 1.0)
+                    ax.plot(
+                        t,
+                        x + 1.1 * (sig.shape[0] - 1 - c),
+                        color=colours[c],
+                        lw=0.5,
+                        label=CHANNELS[c],
+                    )
+            ax.set_yticks([])
+            if i == 0:
+                ax.set_title(m)
+            if j == 0:
+                ax.set_ylabel(f"S{i + 1} {s}", fontsize=8)
+            if i == len(SHAPE_NAMES) - 1:
+                ax.set_xlabel("time (s)")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    if handles:
+        fig.legend(
+            handles,
+            labels,
+            loc="outside upper center",
+            ncol=4,
+            title="Example signals per class (first trial; each channel min-max scaled)",
+        )
+    return _save(fig, path)

@@ -1,0 +1,135 @@
+"""Interpretability (paper Section V-D): sensor shares of the selected features, a t-SNE of
+the closed-set top-D features and the paper's three indicators of Fig. 7.
+
+Indicator definitions (computed on the 2-D t-SNE embedding, as the paper's figure):
+
+- ``nn1_shape_accuracy``: leave-one-out 1-nearest-neighbour accuracy of the *shape* label
+  (Euclidean distance in the embedding, the point itself excluded). 1 = every trial's
+  nearest neighbour has its shape; chance is about 1/12.
+- ``mix_sil``: a 0-1 material-mixing score. Within each shape's points, the silhouette
+  coefficient of the *material* labels is computed (scikit-learn, Euclidean); ``s`` is the
+  trial-weighted mean over shapes. ``mix_sil = 1 - clip(s, 0, 1)``: 1 when materials do
+  not form sub-clusters inside a shape cluster (s <= 0), 0 when every material is a
+  perfectly separated sub-cluster (s = 1). Higher = more material-invariant.
+- ``dgi`` (cross-material/same-material neighbour ratio): over all trials, among each
+  trial's ``k = 10`` nearest neighbours in the embedding (itself excluded), the total
+  count of neighbours of a *different material* divided by the total count of the *same
+  material* (denominator floored at 1). With 3 balanced materials, random mixing gives
+  about 2; 0 means materials are fully separated; > 1 indicates strong mixing.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from shapes.validation import check_int
+
+DGI_NEIGHBOURS: int = 10
+
+
+def sensor_shares(selected: Sequence[int], feature_names: Sequence[str]) -> tuple[float, float]:
+    """(PVDF share, SG share) among the ``selected`` feature indices.
+
+    Feature names are ``<channel>.<domain>.<statistic>``; channels ``pvdf*`` and ``sg*``.
+    """
+    sel = [int(i) for i in selected]
+    if not sel:
+        raise ValueError("selected must hold at least one feature index")
+    channels = [feature_names[i].split(".", 1)[0] for i in sel]
+    pvdf = sum(c.startswith("pvdf") for c in channels)
+    sg = sum(c.startswith("sg") for c in channels)
+    return pvdf / len(sel), sg / len(sel)
+
+
+def tsne_embedding(features: np.ndarray, *, seed: int) -> np.ndarray:
+    """2-D t-SNE of ``features`` ``(n, D)`` -> ``(n, 2)``, deterministic for a seed.
+
+    Features are standardised per column first (D-dimensional top-D features have
+    different units); perplexity is 30 or less for small n.
+    """
+    from sklearn.manifold import TSNE
+
+    x = np.asarray(features, dtype=np.float64)
+    if x.ndim != 2 or x.shape[0] < 5:
+        raise ValueError(f"features must have shape (n >= 5, D); got {x.shape}")
+    check_int("seed", seed, minimum=0)
+    std = x.std(axis=0)
+    x = (x - x.mean(axis=0)) / np.where(std > 0, std, 1.0)
+    perplexity = float(min(30.0, (x.shape[0] - 1) / 3.0))
+    tsne = TSNE(
+        n_components=2,
+        perplexity=perplexity,
+        init="pca",
+        random_state=seed,
+        learning_rate="auto",
+        n_jobs=1,
+    )
+    return tsne.fit_transform(x)
+
+
+@dataclass(frozen=True)
+class TsneIndicators:
+    """The paper's Fig. 7 indicators (definitions in the module docstring)."""
+
+    nn1_shape_accuracy: float
+    mix_sil: float
+    dgi: float
+
+
+def _pairwise(emb: np.ndarray) -> np.ndarray:
+    d = np.sqrt(((emb[:, None, :] - emb[None, :, :]) ** 2).sum(-1))
+    np.fill_diagonal(d, np.inf)
+    return d
+
+
+def nn1_accuracy(emb: np.ndarray, labels: np.ndarray) -> float:
+    """Leave-one-out 1-NN accuracy of ``labels`` ``(n,)`` in ``emb`` ``(n, d)``."""
+    d = _pairwise(np.asarray(emb, dtype=np.float64))
+    nearest = np.argmin(d, axis=1)
+    return float(np.mean(labels[nearest] == labels))
+
+
+def mixing_silhouette(emb: np.ndarray, shape: np.ndarray, material: np.ndarray) -> float:
+    """``1 - clip(s, 0, 1)`` with ``s`` the trial-weighted mean over shapes of the
+    material silhouette inside each shape's points (shapes with < 2 materials or fewer
+    than 3 trials are skipped; 1.0 when none qualifies)."""
+    from sklearn.metrics import silhouette_score
+
+    emb = np.asarray(emb, dtype=np.float64)
+    total, weight = 0.0, 0
+    for s in np.unique(shape):
+        idx = np.flatnonzero(shape == s)
+        mats = material[idx]
+        n_mats = np.unique(mats).size
+        if n_mats < 2 or idx.size <= n_mats:
+            continue
+        total += silhouette_score(emb[idx], mats, metric="euclidean") * idx.size
+        weight += idx.size
+    if weight == 0:
+        return 1.0
+    return float(1.0 - np.clip(total / weight, 0.0, 1.0))
+
+
+def cross_same_ratio(emb: np.ndarray, material: np.ndarray, *, k: int = DGI_NEIGHBOURS) -> float:
+    """Cross-material / same-material count among each trial's ``k`` nearest neighbours."""
+    d = _pairwise(np.asarray(emb, dtype=np.float64))
+    k = min(k, d.shape[0] - 1)
+    # Stable sort: ties broken by index, so the result is deterministic.
+    nn = np.argsort(d, axis=1, kind="stable")[:, :k]
+    same = int(np.sum(material[nn] == material[:, None]))
+    cross = nn.size - same
+    return float(cross / max(same, 1))
+
+
+def tsne_indicators(emb: np.ndarray, shape: np.ndarray, material: np.ndarray) -> TsneIndicators:
+    """All three indicators for an embedding ``(n, 2)`` with per-trial labels ``(n,)``."""
+    shape = np.asarray(shape)
+    material = np.asarray(material)
+    return TsneIndicators(
+        nn1_shape_accuracy=nn1_accuracy(emb, shape),
+        mix_sil=mixing_silhouette(emb, shape, material),
+        dgi=cross_same_ratio(emb, material),
+    )

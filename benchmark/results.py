@@ -1,0 +1,124 @@
+"""results.json records (ARCHITECTURE.md) and their file I/O (JSON, atomic, no pickle)."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from .evaluate import EvalResult
+
+ACCURACY_FIELDS: tuple[str, ...] = (
+    "record",
+    "protocol",
+    "fold",
+    "condition",
+    "method",
+    "way",
+    "shot",
+    "query",
+    "episodes",
+    "accuracy",
+    "ci95",
+    "pretrain_s",
+    "adapt_ms_per_episode",
+    "feature_dim",
+)
+
+
+def accuracy_record(
+    *,
+    protocol: str,
+    fold: int | str | None,
+    condition: str | None,
+    method: str,
+    way: int,
+    shot: int,
+    query: int,
+    result: EvalResult,
+    pretrain_s: float,
+    feature_dim: int | None,
+) -> dict[str, Any]:
+    """One (protocol, fold, condition, method, way, shot) accuracy record."""
+    return {
+        "record": "accuracy",
+        "protocol": protocol,
+        "fold": fold,
+        "condition": condition,
+        "method": method,
+        "way": int(way),
+        "shot": int(shot),
+        "query": int(query),
+        "episodes": int(result.episodes),
+        "accuracy": float(result.accuracy),
+        "ci95": float(result.ci95),
+        "pretrain_s": float(pretrain_s),
+        "adapt_ms_per_episode": float(result.adapt_ms_per_episode),
+        "feature_dim": None if feature_dim is None else int(feature_dim),
+    }
+
+
+def selection_record(
+    *, protocol: str, fold: int | str | None, D: int, pvdf_share: float, sg_share: float
+) -> dict[str, Any]:
+    """AFOP-ML's chosen D and the PVDF/SG shares of its top-D features."""
+    return {
+        "record": "selection",
+        "protocol": protocol,
+        "fold": fold,
+        "D": int(D),
+        "pvdf_share": float(pvdf_share),
+        "sg_share": float(sg_share),
+    }
+
+
+def tsne_record(
+    *, protocol: str, D: int, nn1_shape_accuracy: float, mix_sil: float, dgi: float
+) -> dict[str, Any]:
+    """The paper's t-SNE indicators of the top-D embedding."""
+    return {
+        "record": "tsne",
+        "protocol": protocol,
+        "fold": None,
+        "D": int(D),
+        "nn1_shape_accuracy": float(nn1_shape_accuracy),
+        "mix_sil": float(mix_sil),
+        "dgi": float(dgi),
+    }
+
+
+def _clean(value: Any) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _clean(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_clean(v) for v in value]
+    return value
+
+
+def write_results(path: str | Path, records: Sequence[dict]) -> Path:
+    """Write records as a JSON list, atomically (a reader never sees half a file)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps([_clean(dict(r)) for r in records], indent=1) + "\n")
+    os.replace(tmp, path)
+    return path
+
+
+def read_results(path: str | Path) -> list[dict]:
+    """Load and check a results.json written by :func:`write_results`."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"results file {path} does not exist")
+    try:
+        data = json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path} is not valid JSON: {exc}") from None
+    if not isinstance(data, list) or not all(isinstance(r, dict) and "record" in r for r in data):
+        raise ValueError(f"{path} is not a results.json list of records")
+    return data

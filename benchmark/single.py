@@ -1,0 +1,83 @@
+"""``tactile-synth benchmark PROTOCOL``: one protocol (or all) on existing datasets."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+from models.registry import METHOD_NAMES
+from shapes.validation import check_choice, check_int
+
+from . import figures
+from .protocols import PROTOCOL_NAMES, protocol_runner
+from .protocols.generalisation import check_methods
+from .results import write_results
+from .tables import table_one
+
+
+def benchmark_protocol(
+    protocol: str,
+    *,
+    data_path: str | Path,
+    out: str | Path,
+    perturbed_path: str | Path | None = None,
+    methods: Sequence[str] | None = None,
+    episodes: int = 500,
+    seed: int = 0,
+    progress: bool = True,
+) -> list[dict]:
+    """Run ``protocol`` (one of the four, or ``"all"``) and write results, report, figures."""
+    from synth import load_dataset
+
+    from .report import write_report
+    from .run import Budget, benchmark_all, dataset_summary
+
+    check_choice("protocol", protocol, (*PROTOCOL_NAMES, "all"))
+    methods = check_methods(list(methods) if methods else list(METHOD_NAMES))
+    check_int("episodes", episodes, minimum=1)
+    check_int("seed", seed, minimum=0)
+    if protocol in ("perturbation", "all") and perturbed_path is None:
+        raise ValueError(f"--perturbed is required for the {protocol} protocol")
+    data = load_dataset(data_path)
+    perturbed = load_dataset(perturbed_path) if perturbed_path is not None else None
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise FileExistsError(f"--out {out} is a file; choose a directory")
+    out.mkdir(parents=True, exist_ok=True)
+    if protocol == "all":
+        return benchmark_all(
+            data,
+            perturbed,
+            out,
+            methods=methods,
+            budget=Budget(default=episodes),
+            seed=seed,
+            progress=progress,
+            data_path=data_path,
+            perturbed_path=perturbed_path,
+        )
+    records = protocol_runner(protocol)(
+        data, perturbed=perturbed, methods=methods, episodes=episodes, seed=seed, progress=progress
+    )
+    write_results(out / "results.json", records)
+    made: dict[str, str] = {}
+    if protocol == "closed-set":
+        (out / "table1.md").write_text(table_one(records))
+        made["table1"] = "table1.md"
+    else:
+        figures.generalisation_curves(records, out / "generalisation.png")
+        made["generalisation"] = "generalisation.png"
+    if any(r.get("record") == "selection" for r in records):
+        figures.selection_bars(records, out / "selection.png")
+        made["selection"] = "selection.png"
+    meta = {
+        "seed": seed,
+        "data": dataset_summary(data, data_path),
+        "perturbed": None if perturbed is None else dataset_summary(perturbed, perturbed_path),
+        "methods": list(methods),
+        "episodes": f"{episodes} per cell",
+        "figures": made,
+        "notes": [f"protocol {protocol} only"],
+    }
+    write_report(records, out, meta)
+    return records

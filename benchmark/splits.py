@@ -1,0 +1,128 @@
+"""Train/test splits of the generalisation protocols (paper Section V-A, settings 2 and 3).
+
+Cross-shape: the 12 shapes fall into 3 fixed folds of 4 test shapes; a fold trains on the
+other 8 shapes (all three materials) and tests on its 4 unseen shapes. The folds are fixed
+(not drawn at random) so every run, seed and method sees the same geometry split, and were
+chosen deliberately so that each fold's test set is a mix of geometric families and each
+fold's training set still holds every family:
+
+========  =========================================  =====================================
+fold      test shapes                                why
+========  =========================================  =====================================
+0         circle, moon, square, triangle             2 curved (1 convex, 1 concave), 1 quad,
+                                                     the only 3-gon
+1         ellipse, hexagon, pentagram, rhombus       1 curved, 1 regular n-gon, the concave
+                                                     star, 1 quad
+2         semicircle, pentagon, parallelogram,       1 curved with a straight edge, 1
+          trapezoid                                  regular n-gon, 2 quads
+========  =========================================  =====================================
+
+Curved outlines (circle, ellipse, semicircle, moon) are spread 2/1/1 and the four
+quadrilaterals 1/1/2, the two concave outlines (moon, pentagram) sit in different folds,
+and each test shape keeps a geometric relative in training (circle/ellipse,
+moon/semicircle, square/rhombus, pentagon/hexagon), as in a real study where one wants to
+know whether *related* geometry transfers, not whether a wholly new family does.
+
+Cross-material: "leave-one-material-in": train on the 12 classes of one material, test on
+the 24 classes of the other two.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from shapes import SHAPE_NAMES
+from shapes.validation import check_choice, check_int
+from synth import MATERIAL_NAMES, Dataset
+
+#: Test shapes of each cross-shape fold (see the module docstring for the rationale).
+CROSS_SHAPE_FOLDS: tuple[tuple[str, ...], ...] = (
+    ("circle", "moon", "square", "triangle"),
+    ("ellipse", "hexagon", "pentagram", "rhombus"),
+    ("semicircle", "pentagon", "parallelogram", "trapezoid"),
+)
+
+_CONDITION = re.compile(r"force=([0-9.eE+-]+)N,speed=([0-9.eE+-]+)mm/s")
+
+CURVED_SHAPES: frozenset[str] = frozenset({"circle", "ellipse", "semicircle", "moon"})
+
+
+@dataclass(frozen=True)
+class Split:
+    """Boolean masks over one dataset's trials: ``train`` ``(n,)`` and ``test`` ``(n,)``.
+
+    ``fold`` is the fold number (cross-shape) or the training material (cross-material);
+    ``train_values`` / ``test_values`` the shapes or materials on each side.
+    """
+
+    fold: int | str
+    train: np.ndarray
+    test: np.ndarray
+    train_values: tuple[str, ...]
+    test_values: tuple[str, ...]
+
+    def __post_init__(self) -> None:
+        if self.train.shape != self.test.shape or self.train.dtype != bool:
+            raise ValueError("train and test must be boolean masks of the same shape")
+        if np.any(self.train & self.test):
+            raise ValueError("train and test masks overlap")
+
+
+def cross_shape_test_shapes(fold: int) -> tuple[str, ...]:
+    """The 4 unseen test shapes of cross-shape ``fold`` (0, 1 or 2)."""
+    check_int("fold", fold, minimum=0)
+    if fold >= len(CROSS_SHAPE_FOLDS):
+        raise ValueError(f"fold must be in 0..{len(CROSS_SHAPE_FOLDS) - 1}; got {fold}")
+    return CROSS_SHAPE_FOLDS[fold]
+
+
+def cross_shape_split(data: Dataset, fold: int) -> Split:
+    """Train on the 8 shapes outside ``fold`` (all materials), test on its 4 shapes."""
+    test_shapes = cross_shape_test_shapes(fold)
+    train_shapes = tuple(s for s in SHAPE_NAMES if s not in test_shapes)
+    test = np.isin(data.shape, test_shapes)
+    train = np.isin(data.shape, train_shapes)
+    return Split(fold, train, test, train_shapes, test_shapes)
+
+
+def cross_material_split(data: Dataset, train_material: str) -> Split:
+    """Train on ``train_material``'s 12 classes, test on the other two materials' 24."""
+    check_choice("train_material", train_material, MATERIAL_NAMES)
+    test_materials = tuple(m for m in MATERIAL_NAMES if m != train_material)
+    train = data.material == train_material
+    test = np.isin(data.material, test_materials)
+    return Split(train_material, train, test, (train_material,), test_materials)
+
+
+def cross_shape_splits(data: Dataset) -> list[Split]:
+    """All 3 cross-shape folds."""
+    return [cross_shape_split(data, f) for f in range(len(CROSS_SHAPE_FOLDS))]
+
+
+def cross_material_splits(data: Dataset) -> list[Split]:
+    """All 3 leave-one-material-in splits, in :data:`synth.MATERIAL_NAMES` order."""
+    return [cross_material_split(data, m) for m in MATERIAL_NAMES]
+
+
+def condition_name(force_n: float, speed_mm_s: float) -> str:
+    """The results.json name of a perturbation force/speed combination,
+    e.g. ``"force=1.4N,speed=6mm/s"``."""
+    return f"force={force_n:g}N,speed={speed_mm_s:g}mm/s"
+
+
+def parse_condition(condition: str | None) -> tuple[float, float] | None:
+    """``"force=1.4N,speed=6mm/s"`` -> ``(1.4, 6.0)``; ``None`` for other names."""
+    m = _CONDITION.fullmatch(condition or "")
+    return (float(m.group(1)), float(m.group(2))) if m else None
+
+
+def _check_folds() -> None:
+    flat = [s for fold in CROSS_SHAPE_FOLDS for s in fold]
+    if sorted(flat) != sorted(SHAPE_NAMES):
+        raise AssertionError("CROSS_SHAPE_FOLDS must partition SHAPE_NAMES")
+
+
+_check_folds()

@@ -1,0 +1,41 @@
+"""Markdown tables of results laid out like the paper's Table I."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from .paper_reference import TABLE_ONE_COLUMNS
+
+
+def table_one(records: Sequence[dict]) -> str:
+    """Closed-set accuracy (%, mean ± 95% CI) per method and (shot, way) column, then the
+    pretrain time (s) and the adapt time per 5-way-5-shot episode (ms), as Table I."""
+    rs = [
+        r
+        for r in records
+        if r.get("record") == "accuracy"
+        and r.get("protocol") == "closed-set"
+        and r.get("condition") is None
+    ]
+    methods = list(dict.fromkeys(r["method"] for r in rs))
+    cols = [c for c in TABLE_ONE_COLUMNS if any((r["shot"], r["way"]) == c for r in rs)]
+    header = [
+        "method",
+        *[f"{k}-shot {n}-way" for k, n in cols],
+        "pretrain (s)",
+        "adapt/episode 5w5s (ms)",
+        "episodes",
+    ]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for m in methods:
+        mine = [r for r in rs if r["method"] == m]
+        cells = []
+        for k, n in cols:
+            r = next((x for x in mine if (x["shot"], x["way"]) == (k, n)), None)
+            cells.append("-" if r is None else f"{100 * r['accuracy']:.2f} ± {100 * r['ci95']:.2f}")
+        five = next((x for x in mine if (x["shot"], x["way"]) == (5, 5)), None)
+        pretrain = f"{mine[0]['pretrain_s']:.2f}" if mine else "-"
+        adapt = "-" if five is None else f"{five['adapt_ms_per_episode']:.2f}"
+        episodes = "/".join(str(e) for e in sorted({x["episodes"] for x in mine}))
+        lines.append("| " + " | ".join([m, *cells, pretrain, adapt, episodes]) + " |")
+    return "\n".join(lines) + "\n"

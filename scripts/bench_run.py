@@ -1,0 +1,46 @@
+"""Time ``tactile-synth run`` (wall and CPU time of this process and its children).
+
+    python3 scripts/bench_run.py --out /tmp/ts-run --quick
+    python3 scripts/bench_run.py --out /tmp/ts-full
+
+Targets (issue #7, 2-core machine): ``--quick`` < 5 min, full < 45 min. Removes nothing:
+point --out at a fresh directory to time generation too (re-runs reuse the datasets).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import sys
+import time
+from pathlib import Path
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", required=True, type=Path)
+    parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args()
+
+    from benchmark.run import run
+
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    run(args.out, quick=args.quick, seed=args.seed, progress=True)
+    wall = time.perf_counter() - wall0
+    cpu = time.process_time() - cpu0
+    child = resource.getrusage(resource.RUSAGE_CHILDREN)
+    summary = {
+        "command": f"tactile-synth run --out {args.out}" + (" --quick" if args.quick else ""),
+        "wall_s": round(wall, 1),
+        "cpu_s_self": round(cpu, 1),
+        "cpu_s_children": round(child.ru_utime + child.ru_stime, 1),
+        "target_s": 300 if args.quick else 2700,
+    }
+    print(json.dumps(summary, indent=2))
+    return 0 if wall < summary["target_s"] else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

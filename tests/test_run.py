@@ -1,0 +1,149 @@
+"""``benchmark all`` / ``run`` end to end: files written, same seed -> same numbers bit for
+bit, resumability, and the real ``tactile-synth run --quick`` (slow)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import synth.generation as generation
+from benchmark.report import strip_timing
+from benchmark.run import FIGURE_FILES, Budget, benchmark_all, run
+from synth import Dataset
+from tests.synthetic_data import make_dataset
+
+TIMING_FIELDS = ("pretrain_s", "adapt_ms_per_episode")
+
+
+def comparable(records: list[dict]) -> list[dict]:
+    """Records without wall-clock fields (the only fields allowed to differ between runs)."""
+    return [{k: v for k, v in r.items() if k not in TIMING_FIELDS} for r in records]
+
+
+def _perturbed() -> Dataset:
+    parts = [
+        make_dataset(trials_per_class=3, n_samples=400, force_n=f, speed_mm_s=s, seed=i + 10)
+        for i, (f, s) in enumerate(((0.6, 6.0), (0.6, 14.0), (1.4, 6.0), (1.4, 14.0)))
+    ]
+    cat = {
+        k: np.concatenate([getattr(p, k) for p in parts])
+        for k in ("signals", "shape", "material", "label", "force_n", "speed_mm_s", "seed")
+    }
+    return Dataset(**cat)
+
+
+@pytest.fixture(scope="module")
+def datasets():
+    return make_dataset(trials_per_class=6, n_samples=400, noise=0.2), _perturbed()
+
+
+def test_benchmark_all_writes_everything_and_is_deterministic(datasets, tmp_path):
+    data, pert = datasets
+    kw = dict(methods=["AFOP-ML"], budget=Budget(default=20), seed=4, progress=False)
+    a = benchmark_all(data, pert, tmp_path / "a", **kw)
+    b = benchmark_all(data, pert, tmp_path / "b", **kw)
+    for out in (tmp_path / "a", tmp_path / "b"):
+        assert (out / "results.json").is_file() and (out / "report.md").is_file()
+        for name in FIGURE_FILES.values():
+            if name == FIGURE_FILES["dscan"] and not any(r["record"] == "dscan" for r in a):
+                continue
+            png = out / name
+            assert png.is_file() and png.read_bytes()[:4] == b"\x89PNG", name
+    # Same seed -> same numbers, bit for bit (timings excluded by design).
+    assert comparable(a) == comparable(b)
+    ja = json.loads((tmp_path / "a" / "results.json").read_text())
+    jb = json.loads((tmp_path / "b" / "results.json").read_text())
+    assert comparable(ja) == comparable(jb)
+    ra = (tmp_path / "a" / "report.md").read_text()
+    rb = (tmp_path / "b" / "report.md").read_text()
+    assert strip_timing(ra) == strip_timing(rb)
+    kinds = {r["record"] for r in a}
+    assert {"accuracy", "selection", "tsne"} <= kinds
+    protocols = {r["protocol"] for r in a if r["record"] == "accuracy"}
+    assert protocols == {"closed-set", "cross-shape", "cross-material", "perturbation"}
+    sel = {r["protocol"] for r in a if r["record"] == "selection"}
+    assert sel == {"closed-set", "cross-shape", "cross-material", "perturbation"}
+    # A different seed changes the numbers.
+    c = benchmark_all(data, pert, tmp_path / "c", **{**kw, "seed": 5})
+    assert comparable(c) != comparable(a)
+
+
+def test_benchmark_all_resumes_from_checkpoints(datasets, tmp_path, monkeypatch):
+    data, pert = datasets
+    kw = dict(methods=["AFOP-ML"], budget=Budget(default=10), seed=0, progress=False)
+    first = benchmark_all(data, pert, tmp_path, **kw)
+    import benchmark.run as run_mod
+
+    def boom(*a, **k):
+        raise AssertionError("protocol re-run although its checkpoint is valid")
+
+    monkeypatch.setattr(run_mod, "_call_protocol", boom)
+    again = benchmark_all(data, pert, tmp_path, **kw)
+    assert comparable(again) == comparable(first)
+
+
+def test_benchmark_all_validates_inputs(datasets, tmp_path):
+    data, pert = datasets
+    with pytest.raises(ValueError, match="AFOP-ML"):
+        benchmark_all(data, pert, tmp_path, methods=["Direct-Prot-ML"], progress=False)
+    with pytest.raises(ValueError, match="method must be one of"):
+        benchmark_all(data, pert, tmp_path, methods=["AFOP-ML", "SVM"], progress=False)
+
+
+class FakeSimulator:
+    """Class-dependent signals from each spec (fast stand-in for MuJoCo)."""
+
+    def __init__(self) -> None:
+        self.trials = 0
+
+    def __call__(self, specs, synth, threads):
+        from synth import CLASS_NAMES
+
+        self.trials += len(specs)
+        t = np.arange(2000) / 1000.0
+        rows = []
+        for s in specs:
+            c = CLASS_NAMES.index(f"{s.shape}/{s.material}")
+            rng = np.random.default_rng(s.seed)
+            base = np.stack([np.sin(2 * np.pi * (3 + c + 0.5 * k) * t) for k in range(4)])
+            rows.append(
+                (base * s.force_n + 0.3 * rng.standard_normal((4, 2000))).astype(np.float32)
+            )
+        return np.stack(rows)
+
+
+def test_run_quick_with_fake_simulator_is_resumable(tmp_path, monkeypatch):
+    monkeypatch.setattr(generation, "validate_synth_config", lambda synth: None)
+    monkeypatch.setattr(generation, "default_synth_config", lambda: {"fake": True})
+    import benchmark.run as run_mod
+
+    monkeypatch.setattr(run_mod, "QUICK_METHODS", ("AFOP-ML",))
+    sim = FakeSimulator()
+    first = run(tmp_path, quick=True, progress=False, workers=1, simulator=sim)
+    n_sim = sim.trials
+    assert n_sim > 0
+    assert (tmp_path / "report.md").is_file()
+    again = run(tmp_path, quick=True, progress=False, workers=1, simulator=sim)
+    assert sim.trials == n_sim  # datasets reused, nothing re-simulated
+    assert comparable(again) == comparable(first)
+
+
+@pytest.mark.slow
+def test_tactile_synth_run_quick_real(tmp_path):
+    """The README's first-look command with the real generator and simulator."""
+    from benchmark.cli import main
+
+    assert main(["run", "--out", str(tmp_path), "--quick"]) == 0
+    records = json.loads((tmp_path / "results.json").read_text())
+    assert {r["protocol"] for r in records if r["record"] == "accuracy"} == {
+        "closed-set",
+        "cross-shape",
+        "cross-material",
+        "perturbation",
+    }
+    text = (tmp_path / "report.md").read_text()
+    assert "## Generalisation to unseen domains" in text
+    for name in FIGURE_FILES.values():
+        assert (tmp_path / name).is_file(), name
