@@ -2,6 +2,7 @@
 
     python scripts/bench_generate.py                      # paper preset, default workers
     python scripts/bench_generate.py --preset quick --modes inline pool
+    python scripts/bench_generate.py --keep data      # also keep data/paper-inline
 
 For each execution mode it generates the preset into a temporary store and reports wall
 time, CPU time (this process + its worker processes), trials/s and the peak RSS of the
@@ -40,10 +41,14 @@ def _cpu_s() -> float:
     return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
 
 
-def bench_generate(name: str, mode: str) -> dict:
+def bench_generate(name: str, mode: str, keep: Path | None = None) -> dict:
     workers, threads = MODES[mode]
     with tempfile.TemporaryDirectory(prefix="bench-gen-") as tmp:
         out = Path(tmp) / f"{name}.zarr"
+        if keep is not None:
+            out = keep / f"{name}-{mode}"
+            if out.exists():
+                raise SystemExit(f"--keep: {out} exists; remove it or choose another directory")
         cpu0, t0 = _cpu_s(), time.perf_counter()
         generate(name, out, workers=workers, threads=threads, progress=sys.stderr.isatty())
         wall, cpu = time.perf_counter() - t0, _cpu_s() - cpu0
@@ -86,11 +91,17 @@ def main(argv: list[str] | None = None) -> int:
         "--raw-trials", type=int, default=None, help="trials for the raw rate (default: all)"
     )
     parser.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
+    parser.add_argument(
+        "--keep",
+        metavar="DIR",
+        type=Path,
+        help="keep each generated store as DIR/<preset>-<mode> (default: a deleted temp dir)",
+    )
     args = parser.parse_args(argv)
 
     results: dict = {"preset": args.preset, "cores": os.cpu_count(), "runs": []}
     for mode in args.modes:
-        r = bench_generate(args.preset, mode)
+        r = bench_generate(args.preset, mode, args.keep)
         results["runs"].append(r)
         print(
             f"generate {args.preset} [{mode}]: {r['trials']} trials in {r['wall_s']:.1f} s wall, "
