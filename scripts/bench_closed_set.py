@@ -1,0 +1,86 @@
+"""Time the closed-set table (11 Table I columns) per method, and project it to 500 episodes.
+
+    python3 scripts/bench_closed_set.py --data PATH                 # all 7 methods, 500 eps
+    python3 scripts/bench_closed_set.py --data PATH --episodes 50   # measure 50, project 500
+
+Issue 6 target: the full closed-set table of all seven methods (11 columns x 500 episodes)
+within 30 minutes on this 2-core machine. For each method this runs the closed-set
+protocol alone (fit on the training half, every column on the test half) and prints its
+wall time split into pretrain and evaluation. With ``--episodes E`` below 500 the
+evaluation part is scaled by 500 / E (episodes are evaluated in fixed-size chunks, so the
+cost is linear in the episode count); the pretrain part is not scaled. The 386-feature
+pool is computed once beforehand and reported separately, as the protocol receives it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+from benchmark.protocols import closed_set
+from models.features import extract
+from models.registry import METHOD_NAMES
+from synth import load_dataset
+
+TARGET_EPISODES = 500
+TARGET_S = 30 * 60
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--data", required=True)
+    parser.add_argument("--methods", nargs="+", default=list(METHOD_NAMES))
+    parser.add_argument("--episodes", type=int, default=TARGET_EPISODES)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
+    args = parser.parse_args()
+    if not 1 <= args.episodes <= TARGET_EPISODES:
+        raise SystemExit(f"--episodes must be in 1..{TARGET_EPISODES}; got {args.episodes}")
+    data = load_dataset(args.data)
+    t0 = time.perf_counter()
+    feats = extract(data.signals)
+    feat_s = time.perf_counter() - t0
+    scale = TARGET_EPISODES / args.episodes
+    print(f"{len(data)} trials; feature pool {feat_s:.1f} s; {args.episodes} episodes per column")
+    print(f"{'method':16s} {'pretrain s':>10s} {'eval s':>8s} {'total s':>8s} {'at 500 eps':>10s}")
+    rows = []
+    for name in args.methods:
+        t0 = time.perf_counter()
+        records = closed_set.run(
+            data, methods=(name,), episodes=args.episodes, seed=args.seed, features=feats
+        )
+        wall = time.perf_counter() - t0
+        pretrain = next(r["pretrain_s"] for r in records if r.get("pretrain_s") is not None)
+        evaluation = wall - pretrain
+        projected = pretrain + evaluation * scale
+        cols = sum(1 for r in records if r.get("accuracy") is not None)
+        rows.append(
+            {
+                "method": name,
+                "columns": cols,
+                "pretrain_s": pretrain,
+                "eval_s": evaluation,
+                "wall_s": wall,
+                "projected_500_s": projected,
+            }
+        )
+        print(
+            f"{name:16s} {pretrain:10.1f} {evaluation:8.1f} {wall:8.1f} {projected:10.1f}",
+            flush=True,
+        )
+    total = feat_s + sum(r["projected_500_s"] for r in rows)
+    kind = "measured" if scale == 1 else f"projected from {args.episodes} episodes"
+    print(
+        f"closed-set table, {len(rows)} methods x 11 columns x {TARGET_EPISODES} episodes: "
+        f"{total / 60:.1f} min ({kind}); target {TARGET_S // 60} min"
+    )
+    if args.json:
+        Path(args.json).write_text(
+            json.dumps({"episodes": args.episodes, "feature_s": feat_s, "rows": rows}, indent=2)
+        )
+
+
+if __name__ == "__main__":
+    main()
