@@ -8,7 +8,7 @@ pinned to one CPU and BLAS/OpenMP pools to one thread before numpy is imported.
 Speed reference: tsfresh (not a dependency; install it in a separate environment, e.g.
 ``python3 -m venv --system-site-packages /tmp/tsf && /tmp/tsf/bin/pip install tsfresh``
 and run this script with ``/tmp/tsf/bin/python``). tsfresh computes the time-domain
-statistics our pool shares with it (listed in ``TSFRESH_PARAMS``: 27 per channel, 4
+statistics our pool shares with it (listed in ``TSFRESH_PARAMS``: 25 per channel, 4
 channels) on the first ``--tsfresh-trials`` trials with ``n_jobs=0`` (no process pool);
 its time is reported as measured and scaled linearly to the whole dataset, and its
 mean/std/max values are checked against ours. tsfresh has no discrete wavelet transform
@@ -32,7 +32,7 @@ import numpy as np  # noqa: E402
 from models.features import CHANNELS, FEATURE_NAMES, extract  # noqa: E402
 from synth import load_dataset  # noqa: E402
 
-#: tsfresh calculators with a counterpart in our time-domain statistics (27 per channel).
+#: tsfresh calculators with a counterpart in our time-domain statistics (25 per channel).
 TSFRESH_PARAMS: dict = {
     "mean": None,
     "standard_deviation": None,
