@@ -22,6 +22,8 @@ from .nets import ChannelScaler, train_per_episode
 FRAMES = 50
 HIDDEN = 16
 CHUNK = 128
+#: Support examples trained at once (cache-sized: see :func:`models.nets.episodes_per_chunk`).
+ROWS = 6144
 
 
 def frame_features(z: np.ndarray, frames: int = FRAMES) -> np.ndarray:
@@ -110,4 +112,5 @@ class BiLSTMBaseline(FewShotMethod):
             lr=self.lr,
             seed=self.seed,
             chunk=CHUNK,
+            rows=ROWS,
         )

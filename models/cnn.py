@@ -23,6 +23,8 @@ from .nets import (
 )
 
 CHUNK = 64
+#: Support examples trained at once (cache-sized: see :func:`models.nets.episodes_per_chunk`).
+ROWS = 3072
 
 
 class CNNBaseline(FewShotMethod):
@@ -54,4 +56,5 @@ class CNNBaseline(FewShotMethod):
             lr=self.lr,
             seed=self.seed,
             chunk=CHUNK,
+            rows=ROWS,
         )

@@ -25,9 +25,18 @@ import torch
 
 from .base import FewShotMethod
 from .episodes import sample_episodes
-from .nets import ChannelScaler, cnn_forward, decimate, episode_inputs, init_cnn
+from .nets import (
+    ChannelScaler,
+    cnn_forward,
+    decimate,
+    episode_inputs,
+    episodes_per_chunk,
+    init_cnn,
+)
 
 CHUNK = 64
+#: Support examples adapted at once (cache-sized: see :func:`models.nets.episodes_per_chunk`).
+ROWS = 3072
 
 
 def _zero_head(params: list[torch.Tensor], copies: int, n_way: int) -> list[torch.Tensor]:
@@ -127,9 +136,10 @@ class MAML(FewShotMethod):
         x = torch.as_tensor(self.scaler_.transform(decimate(signals)))
         _, n_way, k_shot = support.shape
         out = np.empty(query.shape, dtype=np.int64)
-        for start in range(0, support.shape[0], CHUNK):
-            s = support[start : start + CHUNK]
-            q = query[start : start + CHUNK]
+        step = episodes_per_chunk(n_way * k_shot, cap=CHUNK, rows=ROWS)
+        for start in range(0, support.shape[0], step):
+            s = support[start : start + step]
+            q = query[start : start + step]
             fast = _adapt(x, s, self.body_, n_way, k_shot, self.test_steps, self.inner_lr)
             with torch.no_grad():
                 logits = cnn_forward(episode_inputs(x, q), fast)

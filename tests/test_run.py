@@ -8,6 +8,7 @@ import json
 import numpy as np
 import pytest
 
+import synth
 import synth.generation as generation
 from benchmark.report import strip_timing
 from benchmark.run import FIGURE_FILES, Budget, benchmark_all, run
@@ -132,10 +133,20 @@ def test_run_quick_with_fake_simulator_is_resumable(tmp_path, monkeypatch):
 
 @pytest.mark.slow
 def test_tactile_synth_run_quick_real(tmp_path):
-    """The README's first-look command with the real generator and simulator."""
+    """The README's first-look command with the real generator and simulator, twice from
+    nothing: same seed, same data and same report numbers, bit for bit."""
     from benchmark.cli import main
 
-    assert main(["run", "--out", str(tmp_path), "--quick"]) == 0
+    assert main(["run", "--out", str(tmp_path / "a"), "--quick"]) == 0
+    assert main(["run", "--out", str(tmp_path / "b"), "--quick"]) == 0
+    ra, rb = ((tmp_path / d / "report.md").read_text() for d in "ab")
+    assert strip_timing(ra) == strip_timing(rb)
+    ja, jb = (json.loads((tmp_path / d / "results.json").read_text()) for d in "ab")
+    assert comparable(ja) == comparable(jb)
+    for name in ("nominal", "perturbation"):
+        da, db = (synth.load_dataset(tmp_path / d / "data" / name) for d in "ab")
+        assert da.signals.tobytes() == db.signals.tobytes(), name
+    tmp_path = tmp_path / "a"
     records = json.loads((tmp_path / "results.json").read_text())
     assert {r["protocol"] for r in records if r["record"] == "accuracy"} == {
         "closed-set",
