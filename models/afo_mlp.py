@@ -19,7 +19,7 @@ import torch
 
 from .afop import AFOPML
 from .base import FewShotMethod
-from .episodes import sample_episodes
+from .episodes import meta_training_episodes
 from .features import pool_of
 from .prototypes import EPISODE_CHUNK, normalise
 
@@ -76,18 +76,10 @@ class AFOMLPML(FewShotMethod):
         for p in params:
             p.requires_grad_(True)
         opt = torch.optim.Adam(params, lr=self.meta_lr)
-        classes, counts = np.unique(labels, return_counts=True)
-        way = min(5, classes.size)
-        shot = max(1, min(5, int(counts.min()) // 2))
-        query = max(1, min(5, int(counts.min()) - shot))
-        batch = sample_episodes(
-            labels,
-            n_way=way,
-            k_shot=shot,
-            n_query=query,
-            episodes=self.meta_iterations * self.meta_batch,
-            seed=self.seed,
+        batch = meta_training_episodes(
+            labels, episodes=self.meta_iterations * self.meta_batch, seed=self.seed
         )
+        way, shot = batch.n_way, batch.k_shot
         for it in range(self.meta_iterations):
             sl = slice(it * self.meta_batch, (it + 1) * self.meta_batch)
             s, q = batch.support[sl], batch.query[sl]

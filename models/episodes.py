@@ -108,3 +108,19 @@ def sample_episodes(
         classes=chosen,
         seed=seed,
     )
+
+
+def meta_training_episodes(labels: np.ndarray, *, episodes: int, seed: int) -> EpisodeBatch:
+    """Episodes for meta-training on the training classes: 5-way 5-shot 5-query, each
+    lowered to what the pool holds (way to the class count; shot to half the smallest
+    class; queries to the rest of it)."""
+    classes, counts = np.unique(labels, return_counts=True)
+    shot = max(1, min(5, int(counts.min()) // 2))
+    return sample_episodes(
+        labels,
+        n_way=min(5, classes.size),
+        k_shot=shot,
+        n_query=max(1, min(5, int(counts.min()) - shot)),
+        episodes=episodes,
+        seed=seed,
+    )

@@ -24,7 +24,7 @@ import numpy as np
 import torch
 
 from .base import FewShotMethod
-from .episodes import sample_episodes
+from .episodes import meta_training_episodes
 from .nets import (
     ChannelScaler,
     cnn_forward,
@@ -98,18 +98,10 @@ class MAML(FewShotMethod):
         gen = torch.Generator().manual_seed(self.seed)
         meta = [p.requires_grad_(True) for p in init_cnn(5, gen, copies=1)]
         opt = torch.optim.Adam(meta, lr=self.outer_lr)
-        classes, counts = np.unique(labels, return_counts=True)
-        way = min(5, classes.size)
-        shot = max(1, min(5, int(counts.min()) // 2))
-        query = max(1, min(5, int(counts.min()) - shot))
-        batch = sample_episodes(
-            labels,
-            n_way=way,
-            k_shot=shot,
-            n_query=query,
-            episodes=self.meta_iterations * self.meta_batch,
-            seed=self.seed,
+        batch = meta_training_episodes(
+            labels, episodes=self.meta_iterations * self.meta_batch, seed=self.seed
         )
+        way, shot = batch.n_way, batch.k_shot
         for it in range(self.meta_iterations):
             sl = slice(it * self.meta_batch, (it + 1) * self.meta_batch)
             s, q, ql = batch.support[sl], batch.query[sl], batch.query_labels[sl]
