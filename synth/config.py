@@ -8,11 +8,15 @@ dicts (``to_dict``/``from_dict``) so a dataset stores the exact configuration th
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 from typing import Any, Self
 
 from . import params
 from .materials import MATERIAL_NAMES, MATERIALS, Material
+
+#: Vacuum permittivity (F/m).
+VACUUM_PERMITTIVITY_F_M = 8.8541878128e-12
 
 
 @dataclass(frozen=True)
@@ -22,9 +26,10 @@ class Finger:
     #: Fingertip pad radius; a human-sized fingertip is ~7-8 mm in radius, and it must
     #: drop into the moon's 12.5 mm notch (sag over 6.25 mm > 2 mm needs r < 10.8 mm).
     pad_radius_m: float = 0.007
-    #: Moving mass of skin + pad below the PDMS support (a few grams of silicone).
+    #: Moving mass below the PDMS support: silicone skin pad, films and the support's
+    #: moving half (a silicone hemisphere of 7 mm radius alone is ~0.8 g).
     pad_mass_kg: float = 0.003
-    #: Phalanx + carriage mass the robot's force loop moves vertically.
+    #: Phalanx + carriage mass the robot's drives move.
     phalanx_mass_kg: float = 0.05
     #: PDMS support stiffness, normal (1 N compresses ~0.4 mm of soft PDMS).
     pdms_normal_stiffness_n_m: float = 2500.0
@@ -35,6 +40,19 @@ class Finger:
     pdms_pitch_stiffness_nm_rad: float = 0.5
     #: Damping ratio of the PDMS modes (silicone elastomers: 0.1-0.2).
     pdms_damping_ratio: float = 0.15
+    #: Young's modulus of the silicone skin: platinum-cure silicone of the Dragon Skin 20
+    #: class, 0.29 MPa small-strain tensile modulus (Marechal et al. 2021, Soft Robotics
+    #: Materials Database); a human fingertip is 0.07-0.2 MPa (Oprisan et al. 2016).
+    skin_modulus_pa: float = 0.29e6
+    #: Poisson's ratio of silicone (nearly incompressible: 0.48-0.499).
+    skin_poisson: float = 0.49
+    #: MuJoCo soft-contact parameters of the skin, one set for every material: solref
+    #: (time constant s, damping ratio) and solimp (dmin, dmax, width m, midpoint, power).
+    #: Fitted by ``scripts/calibrate.py skin`` so that the simulated indentation follows
+    #: Hertz's law of a sphere of ``pad_radius_m`` and ``skin_modulus_pa`` on a rigid flat
+    #: over 0.3-2 N (``synth.contact.hertz_indentation_m``).
+    skin_solref: tuple[float, ...] = (0.001461, 1.0)
+    skin_solimp: tuple[float, ...] = (0.499847, 0.95, 0.004182, 0.5, 1.175687)
     #: Fingerprint ridge spacing (human ~0.45 mm; the paper's finger has printed ridges).
     ridge_spacing_m: float = 0.45e-3
     #: Width of one ridge's contact with the surface (averages finer texture).
@@ -43,11 +61,6 @@ class Finger:
     ridges_in_contact: int = 7
     #: Irregularity of the ridge spacing (real fingerprints are not perfectly periodic).
     ridge_jitter: float = 0.25
-    #: MuJoCo solimp of the skin contact (impedance 0.9 -> 0.95 over 1 mm of indentation):
-    #: the constraint stiffens as the skin is pressed, like soft tissue.
-    skin_solimp: tuple[float, ...] = (0.9, 0.95, 0.001, 0.5, 2.0)
-    #: Skin's effective mass loading each PVDF film (inertial stress from skin vibration).
-    film_skin_mass_kg: float = 0.001
     #: Height of the two strain-gauge sites above the pad's mount (phalanx as a cantilever).
     gauge_heights_m: tuple[float, ...] = (0.012, 0.020)
 
@@ -61,15 +74,21 @@ class Finger:
             "pdms_shear_stiffness_n_m",
             "pdms_pitch_stiffness_nm_rad",
             "pdms_damping_ratio",
+            "skin_modulus_pa",
             "ridge_spacing_m",
             "ridge_width_m",
-            "film_skin_mass_kg",
         )
-        params.non_negative(self, "ridge_jitter")
+        params.non_negative(self, "ridge_jitter", "skin_poisson")
+        params.below(self, "skin_poisson", 0.5, "an elastic solid")
         params.below(self, "ridge_jitter", 0.5, "ridges must not swap order")
         if not isinstance(self.ridges_in_contact, int) or self.ridges_in_contact < 1:
             raise ValueError(
                 f"Finger.ridges_in_contact must be an integer >= 1; got {self.ridges_in_contact!r}"
+            )
+        ref = self.skin_solref
+        if len(ref) != 2 or not (ref[0] > 0 and ref[1] > 0):
+            raise ValueError(
+                f"Finger.skin_solref must be (timeconst_s > 0, dampratio > 0); got {ref!r}"
             )
         imp = self.skin_solimp
         if len(imp) != 5 or not (0 < imp[0] <= imp[1] < 1) or imp[2] <= 0:
@@ -85,29 +104,48 @@ class Finger:
 
 @dataclass(frozen=True)
 class Motion:
-    """The robot's open-loop motion and the physics integration."""
+    """The robot's motion (path, timeline, drives, force loop) and the physics step.
+
+    The robot is position-controlled along the path (stiff x/y servos) and holds the
+    normal force with a force loop: a discrete integral controller, run every
+    ``control_period_s`` on the force its wrist measures, that moves the set point of a
+    stiff z servo (the way a UR arm's force mode works).
+    """
 
     #: Physics step; 0.5 ms resolves skin vibration up to the 1 kHz DAQ's band and keeps
     #: contact time constants >= 2 steps.
     timestep_s: float = 0.0005
-    #: Load phase: finger pressed at the target force before it starts sliding.
-    settle_s: float = 0.12
+    #: The robot controller's period: 8 ms, the 125 Hz real-time loop of a UR5 (CB3); the
+    #: force loop acts at this rate.
+    control_period_s: float = 0.008
+    #: How often the surface's response (texture under the contact, friction coefficient)
+    #: is recomputed from the simulated state. A numerical choice, not the robot's: short
+    #: enough that the contact moves a small fraction of the finest felt wavelength between
+    #: updates (20 um at 10 mm/s against 85-100 um marks), with the height and slope in
+    #: between extrapolated along the contact's velocity.
+    surface_update_s: float = 0.002
+    #: Load phase: the finger presses on the plate, clear of the raised outline, before it
+    #: starts sliding.
+    settle_s: float = 0.10
     #: Velocity ramp at the slide start (the robot's acceleration limit).
     ramp_s: float = 0.02
-    #: Earliest window start after the slide starts (lets the start transient pass).
-    lead_s: float = 0.05
-    #: Stiffness of the robot's x/y position servos (a robot arm tip is stiff; soft drives
-    #: let friction creep, see MUJOCO-NOTES).
-    servo_stiffness_n_m: float = 5000.0
-    #: Their damping (about critical for the phalanx mass).
-    servo_damping_n_s_m: float = 30.0
-    #: Damping of the vertical force loop (the force controller's bandwidth).
-    force_loop_damping_n_s_m: float = 5.0
+    #: Sliding time from the slide start to the first touch of the raised outline: the
+    #: start point is placed this far (in time, at the trial's speed) ahead of the outline,
+    #: so the skin crosses the entry edge as a sliding finger does.
+    approach_s: float = 0.20
+    #: Stiffness of the robot's x/y/z position servos: 1 N of friction deflects the tip
+    #: 0.05 mm (an arm's tip is stiff; soft drives let friction creep), and the servo mode
+    #: with the phalanx mass (~100 Hz) stays resolved by the physics step.
+    servo_stiffness_n_m: float = 20000.0
+    #: Their damping: critical for the phalanx and pad mass (2 sqrt(k m)).
+    servo_damping_n_s_m: float = 65.0
+    #: Closed-loop bandwidth of the force loop. Not published for UR force mode; a 125-500
+    #: Hz admittance loop with a sample or two of latency is stable up to ~1/10 of its
+    #: rate, and contact bouncing is reported at the upper end: 5 Hz (range 1-10 Hz).
+    force_loop_bandwidth_hz: float = 5.0
     #: MuJoCo impratio: frictional/normal constraint impedance; 10 makes the elliptic
-    #: cone's tangential/normal match the coefficient (MUJOCO-NOTES: 0.83 at 1 vs 0.90).
-    impratio: float = 10.0
-    #: Where the window centre sits along x relative to the specimen centre.
-    window_center_x_m: float = 0.0
+    #: cone's tangential/normal match the coefficient (0.83 at 1 vs 0.90 for 0.9).
+    impratio: float = 100.0
     #: Nominal lateral (y) position of the path over the specimen centre.
     path_y_m: float = 0.0
     #: False: slide on the bare base plate (sensor calibration runs, physics checks).
@@ -117,14 +155,16 @@ class Motion:
         params.positive(
             self,
             "timestep_s",
+            "control_period_s",
+            "surface_update_s",
             "settle_s",
             "ramp_s",
+            "approach_s",
             "servo_stiffness_n_m",
             "servo_damping_n_s_m",
-            "force_loop_damping_n_s_m",
+            "force_loop_bandwidth_hz",
             "impratio",
         )
-        params.non_negative(self, "lead_s")
         params.below(self, "timestep_s", 0.001, "the physics must run faster than the 1 kHz DAQ")
         ratio = 1.0 / (self.timestep_s * 1000.0)
         if abs(ratio - round(ratio)) > 1e-9:
@@ -132,42 +172,65 @@ class Motion:
                 "Motion.timestep_s must divide the 1 ms DAQ period (e.g. 0.0005, 0.00025); "
                 f"got {self.timestep_s!r}"
             )
-        for name in ("window_center_x_m", "path_y_m"):
-            if abs(params._value(self, name)) > 0.01:
-                raise ValueError(
-                    f"Motion.{name} must lie within +-0.01 m; got {getattr(self, name)!r}"
-                )
+        steps = self.surface_update_s / self.timestep_s
+        if abs(steps - round(steps)) > 1e-9 or round(steps) < 2:
+            raise ValueError(
+                "Motion.surface_update_s must be a whole number (>= 2) of physics steps "
+                f"({self.timestep_s} s); got {self.surface_update_s!r}"
+            )
+        periods = self.control_period_s / self.surface_update_s
+        if abs(periods - round(periods)) > 1e-9 or round(periods) < 1:
+            raise ValueError(
+                "Motion.control_period_s must be a whole number of surface updates "
+                f"({self.surface_update_s} s); got {self.control_period_s!r}"
+            )
+        if abs(params._value(self, "path_y_m")) > 0.01:
+            raise ValueError(f"Motion.path_y_m must lie within +-0.01 m; got {self.path_y_m!r}")
         if not isinstance(self.raised_shape, bool):
             raise ValueError(
                 f"Motion.raised_shape must be True or False; got {self.raised_shape!r}"
             )
 
+    @property
+    def control_steps(self) -> int:
+        """Physics steps per controller period."""
+        return round(self.control_period_s / self.timestep_s)
+
+    @property
+    def surface_steps(self) -> int:
+        """Physics steps per surface update."""
+        return round(self.surface_update_s / self.timestep_s)
+
 
 @dataclass(frozen=True)
 class Variability:
-    """Per-trial scatter, drawn from the trial's seed (standard deviations unless noted)."""
+    """Per-trial scatter, drawn from the trial's seed (standard deviations unless noted).
 
-    #: Lateral (y) offset of the path: uniform within +- this (placement repeatability).
-    lateral_offset_m: float = 1.0e-3
-    #: Yaw of the path relative to the specimen.
-    yaw_rad: float = 0.02
-    #: Start position along x (shifts where the window sits on the specimen).
-    start_x_m: float = 0.5e-3
-    #: Relative force and speed jitter of the robot.
+    Every trial uses the same finger and the same specimen of its class; what varies is
+    where and how the robot slides and how the surface behaves on that stroke.
+    """
+
+    #: Lateral (y) offset of the path: uniform within +- this. UR arms repeat to +-0.1 mm;
+    #: re-fixing the specimen between series adds a few tenths of a millimetre.
+    lateral_offset_m: float = 0.5e-3
+    #: Yaw of the path relative to the specimen (fixture alignment).
+    yaw_rad: float = 0.01
+    #: Relative error of the force set point and of the path speed.
     force_rel: float = 0.02
-    speed_rel: float = 0.02
-    #: Specimen-to-specimen material scatter of friction and contact time constant.
-    friction_rel: float = 0.04
-    stiffness_rel: float = 0.05
-    #: Sensor gain scatter (film bonding, gauge placement).
-    gain_rel: float = 0.03
-    #: The 2 s window's start within the contact phase: uniform in [0, this].
-    window_jitter_s: float = 0.08
+    speed_rel: float = 0.01
+    #: Stroke-to-stroke scatter of the friction coefficient on one specimen. Repeated
+    #: skin-friction measurements with a device reach an intraclass correlation of 0.91
+    #: (Temel, Johnson & Lloyd 2022, Tribol. Lett. 70), i.e. a coefficient of variation
+    #: of 6-8 % between repeats; contaminated or worn contacts vary more (up to 10-15 %).
+    friction_rel: float = 0.08
+    #: When the window is cut from the record: the contact onset is found in the signals
+    #: to within this (uniform in [0, this]).
+    window_jitter_s: float = 0.02
 
     def __post_init__(self) -> None:
         names = [f.name for f in dataclasses.fields(self)]
         params.non_negative(self, *names)
-        for name in ("force_rel", "speed_rel", "friction_rel", "stiffness_rel", "gain_rel"):
+        for name in ("force_rel", "speed_rel", "friction_rel"):
             params.below(self, name, 0.3, "relative scatter")
 
     def nominal(self) -> Variability:
@@ -186,12 +249,15 @@ class StrainGauge:
     #: Phalanx as a square printed beam (PLA-like): modulus and cross-section side.
     beam_modulus_pa: float = 3.5e9
     beam_side_m: float = 0.008
-    #: Constantan foil gauge factor.
+    #: Constantan foil gauge factor (2.0-2.2).
     gauge_factor: float = 2.0
-    #: Bridge excitation.
+    #: Bridge excitation (2.5-10 V is usual for 350 ohm gauges).
     excitation_v: float = 5.0
     #: Instrumentation amplifier gain.
     amplifier_gain: float = 2000.0
+    #: Input-referred voltage noise density of the instrumentation amplifier: 9 nV/sqrt(Hz)
+    #: for an AD620, 38 for an INA125 (data sheets, at 1 kHz).
+    amplifier_noise_v_per_sqrt_hz: float = 20e-9
     #: DC-coupled low-pass of the conditioning (static channels).
     lowpass_hz: float = 100.0
     #: Unbalance of the bridge at zero load, as strain (resistor tolerance after nulling).
@@ -207,40 +273,79 @@ class StrainGauge:
             "amplifier_gain",
             "lowpass_hz",
         )
-        params.non_negative(self, "offset_strain")
+        params.non_negative(self, "offset_strain", "amplifier_noise_v_per_sqrt_hz")
         params.below(self, "lowpass_hz", 500.0, "below the 1 kHz DAQ's Nyquist frequency")
 
 
 @dataclass(frozen=True)
 class PVDF:
-    """PVDF films under the skin at the pad's front and rear (channels 1-2).
+    """PVDF films bonded under the skin at the pad's front and rear (channels 1-2).
 
-    Charge ``q = d33 * F_film`` (local contact force plus the skin's inertial load); the
-    film capacitance with the amplifier's input resistance is an RC high-pass, so below
-    its corner the output follows the stress *rate* (AC-coupled, zero mean).
+    The skin over a film is pushed in by the contact (the indentation spreads beyond the
+    contact patch as on an elastic half-space), bending the film; a thin stiff film on
+    soft silicone bends about its own mid-plane, so its in-plane strain is
+    ``4 (t / 2) w / L^2`` for a deflection ``w`` over its length ``L``. The charge is
+    ``d31 * E * strain * area`` (stress along the film's stretch axis); a charge
+    amplifier (feedback ``C_f`` parallel ``R_f``) turns it into ``-q / C_f`` above its
+    high-pass corner ``1 / (2 pi R_f C_f)``. Material constants: Measurement
+    Specialties, Piezo Film Sensors Technical Manual (Table 1).
     """
 
-    #: Piezoelectric coefficient of PVDF (|d33| ~ 20-35 pC/N).
-    d33_c_per_n: float = 25e-12
-    #: Film capacitance (28 um film, ~1 cm2).
-    capacitance_f: float = 1.0e-9
-    #: Amplifier input resistance: RC = 10 ms, corner 16 Hz.
-    input_resistance_ohm: float = 10e6
-    #: Voltage amplifier gain: 1.5 V per newton of film load above the corner, so the
-    #: sharpest edge snaps of the perturbation grid (1.4 N, 14 mm/s) peak near 7 V, inside
-    #: the DAQ's +-10 V.
-    amplifier_gain: float = 60.0
+    #: Piezoelectric strain coefficient along the stretch axis (23 pC/N).
+    d31_c_per_n: float = 23e-12
+    #: Young's modulus of PVDF film (2-4 GPa).
+    youngs_modulus_pa: float = 3.0e9
+    #: Relative permittivity (12-13).
+    relative_permittivity: float = 12.0
+    #: Film thickness (9, 28, 52 or 110 um stock).
+    thickness_m: float = 28e-6
+    #: Electrode length (along the sliding direction) and width: a strip that fits on the
+    #: pad's front / rear flank.
+    length_m: float = 5.0e-3
+    width_m: float = 4.0e-3
+    #: Position of each film's centre: this far ahead of (front) and behind (rear) the
+    #: pad's axis, on the skin's surface.
+    offset_m: float = 4.0e-3
+    #: Charge amplifier feedback capacitance and resistance: 1 nF, 100 MOhm -> 1.6 Hz
+    #: high-pass, which blocks the film's pyroelectric and slow thermal drift.
+    feedback_capacitance_f: float = 1.0e-9
+    feedback_resistance_ohm: float = 100e6
+    #: Voltage gain after the charge amplifier, sized so the sharpest edge transients of
+    #: the perturbation grid stay inside the DAQ's +-10 V.
+    post_gain: float = 2.0
+    #: Input voltage noise density of the charge amplifier's op-amp (JFET-input, ~10 nV/
+    #: sqrt(Hz)); the film's capacitance raises its noise gain to 1 + C_film / C_f.
+    amplifier_noise_v_per_sqrt_hz: float = 10e-9
 
     def __post_init__(self) -> None:
         params.positive(
-            self, "d33_c_per_n", "capacitance_f", "input_resistance_ohm", "amplifier_gain"
+            self,
+            "d31_c_per_n",
+            "youngs_modulus_pa",
+            "relative_permittivity",
+            "thickness_m",
+            "length_m",
+            "width_m",
+            "feedback_capacitance_f",
+            "feedback_resistance_ohm",
+            "post_gain",
+        )
+        params.non_negative(self, "offset_m", "amplifier_noise_v_per_sqrt_hz")
+
+    @property
+    def area_m2(self) -> float:
+        return self.length_m * self.width_m
+
+    @property
+    def capacitance_f(self) -> float:
+        """Film capacitance from its geometry: eps0 eps_r A / t (~380 pF/cm2 at 28 um)."""
+        return (
+            VACUUM_PERMITTIVITY_F_M * self.relative_permittivity * self.area_m2 / self.thickness_m
         )
 
     @property
     def highpass_hz(self) -> float:
-        import math
-
-        return 1.0 / (2 * math.pi * self.input_resistance_ohm * self.capacitance_f)
+        return 1.0 / (2 * math.pi * self.feedback_resistance_ohm * self.feedback_capacitance_f)
 
 
 @dataclass(frozen=True)
@@ -253,8 +358,8 @@ class Acquisition:
     #: ADC resolution and input range (+- range_v).
     adc_bits: int = 16
     range_v: float = 10.0
-    #: White noise at the ADC input (amplifier + ADC noise; the USB-6346 class is ~0.2 mV
-    #: RMS on +-10 V), RMS.
+    #: White noise at the ADC input, RMS: 1-2 codes of a 16-bit +-10 V input (code width
+    #: ~0.32 mV), the usual random-noise figure of this DAQ class.
     noise_v_rms: float = 0.3e-3
     #: Mains pickup: frequency and amplitude (random phase per trial).
     mains_hz: float = 50.0
@@ -308,12 +413,10 @@ class SynthConfig:
                 raise ValueError(
                     f"SynthConfig.materials[{name!r}] must be a Material named {name!r}"
                 )
-        shortest = min(self.materials[m].contact_timeconst_s for m in MATERIAL_NAMES)
-        if shortest * (1 - 3 * self.variability.stiffness_rel) < 2 * self.motion.timestep_s:
+        if self.finger.skin_solref[0] < 2 * self.motion.timestep_s:
             raise ValueError(
-                "every material's contact_timeconst_s must stay >= 2 physics steps "
-                f"(timestep {self.motion.timestep_s} s) under 3-sigma stiffness scatter; "
-                f"shortest is {shortest} s"
+                "Finger.skin_solref's time constant must be >= 2 physics steps "
+                f"({2 * self.motion.timestep_s} s); got {self.finger.skin_solref[0]!r}"
             )
 
     def with_material(self, material: Material) -> Self:

@@ -1,17 +1,17 @@
-"""Specimen materials: contact friction, stiffness and damping, density, surface texture.
+"""Specimen materials: the skin's friction law on each surface and the surface texture.
 
-Values are for the paper's three specimen materials touched by a silicone/PDMS-skinned
-finger, chosen from published ranges (sources per field below). The contact stiffness
-and damping are those of the *skin-material interface*: the skin (MPa) is far softer
-than any of the materials (GPa), so the interface is dominated by the skin and the
-materials differ mainly in how the hard surface loses energy (wood's fibres are lossy,
-metal rings). MuJoCo's soft-contact parameters ``solref = (timeconst, dampratio)`` express
-this; ``timeconst`` must stay >= 2 physics steps.
+The finger's skin is the same for every specimen, so the contact's stiffness and damping
+belong to the finger (:class:`synth.config.Finger`), not to the material: silicone
+(~0.3 MPa) is four orders of magnitude softer than printed resin, wood or aluminium
+(GPa), so the indentation is the skin's whatever it touches. Materials differ by their
+surface: how the skin rubs on it (:class:`FrictionLaw`) and its topography
+(:class:`Texture`).
 
-Texture is the specimen surface height along the sliding path: band-limited random
-roughness (Gaussian, exponential autocorrelation = Lorentzian spectrum, with a given RMS
-height and correlation length) plus periodic components (wood grain, printed-resin
-layer lines, machining feed marks) running across the sliding direction.
+Friction values are for a silicone or skin-like pad on the three materials; the sources
+are named per field. Texture is the specimen surface height along the sliding direction:
+band-limited random roughness (Gaussian, exponential autocorrelation) plus periodic
+components running across the sliding direction (machining feed marks, printing raster,
+wood grain).
 """
 
 from __future__ import annotations
@@ -21,6 +21,46 @@ from dataclasses import dataclass
 from . import params
 
 MATERIAL_NAMES: tuple[str, ...] = ("resin", "wood", "aluminum")
+
+
+@dataclass(frozen=True)
+class FrictionLaw:
+    """Skin-on-surface friction coefficient as elastomers show it.
+
+    ``mu(v, F) = (kinetic + (static - kinetic) * exp(-(v / stribeck_velocity_m_s)^2))
+    * (F / 1 N)^load_exponent``: the static coefficient holds at rest and decays to the
+    kinetic one within a few ``stribeck_velocity_m_s`` of slip (a Stribeck-type
+    velocity-weakening law), and a soft Hertzian contact's coefficient falls with load
+    (a constant interfacial shear strength over a contact area growing as ``F^(2/3)``).
+    Velocity weakening of this kind is what lets stick-slip arise in the simulation.
+    """
+
+    #: Sliding (kinetic) coefficient at 1 N.
+    kinetic: float
+    #: Coefficient at rest (>= kinetic). Skin and silicone show static / kinetic ratios of
+    #: 1.1-1.3 (Temel, Johnson & Lloyd 2022, Tribol. Lett. 70: 0.90 / 0.79 and 0.31 / 0.25).
+    static: float
+    #: Slip speed over which the coefficient falls from static to kinetic. Not measured
+    #: for silicone on these surfaces; 1 mm/s is the order of a contact-renewal length of a
+    #: few micrometres over the millisecond relaxation time of a soft elastomer, well
+    #: below the 6-14 mm/s sliding speeds, so sliding itself runs at the kinetic level.
+    stribeck_velocity_m_s: float = 1.0e-3
+    #: Exponent of the load dependence: -0.21 measured for a finger pad over 1-20 N (Seo
+    #: et al. 2009, Ergonomics 52: coefficient down 46 % from 1 to 20 N); Hertz with a
+    #: constant interfacial shear strength gives -1/3.
+    load_exponent: float = -0.21
+
+    def __post_init__(self) -> None:
+        params.positive(self, "kinetic", "static", "stribeck_velocity_m_s")
+        params.below(self, "static", 3.0, "a skin-on-solid coefficient")
+        if self.static < self.kinetic:
+            raise ValueError(
+                f"FrictionLaw.static must be >= kinetic ({self.kinetic!r}); got {self.static!r}"
+            )
+        if not -1.0 <= params._value(self, "load_exponent") <= 0.0:
+            raise ValueError(
+                f"FrictionLaw.load_exponent must lie in -1..0; got {self.load_exponent!r}"
+            )
 
 
 @dataclass(frozen=True)
@@ -59,68 +99,65 @@ class Texture:
 
 @dataclass(frozen=True)
 class Material:
-    """One specimen material. ``friction`` is the skin-material sliding coefficient."""
+    """One specimen material: how the skin rubs on it and what its surface looks like."""
 
     name: str
-    friction: float
-    contact_timeconst_s: float
-    contact_dampratio: float
-    density_kg_m3: float
+    friction: FrictionLaw
     texture: Texture
 
     def __post_init__(self) -> None:
-        params.positive(
-            self, "friction", "contact_timeconst_s", "contact_dampratio", "density_kg_m3"
-        )
-        params.below(self, "friction", 3.0, "a skin-on-solid sliding coefficient")
+        if not isinstance(self.name, str) or not self.name:
+            raise ValueError(f"Material.name must be a non-empty string; got {self.name!r}")
+        if not isinstance(self.friction, FrictionLaw):
+            raise ValueError(f"Material.friction must be a FrictionLaw; got {self.friction!r}")
         if not isinstance(self.texture, Texture):
             raise ValueError(f"Material.texture must be a Texture; got {self.texture!r}")
 
 
 MATERIALS: dict[str, Material] = {
-    # 3-D printed resin: skin-on-polymer friction 0.4-0.7 (Derler & Gerhardt 2012,
-    # Tribol. Lett. 45); printed top surface Rq ~1-2 um between raster/layer lines ~0.4 mm
-    # apart and a few um deep. Density of cured acrylate resin ~1.18 g/cm3.
+    # Printed (SLA/DLP) acrylate resin. Friction: skin and silicone skin equivalents on
+    # smooth glassy polymers range 0.5 to above 1 (Derler & Gerhardt 2012, Tribol. Lett.
+    # 45; dry silicone skin equivalent on polymer coatings > 1); the finger on PMMA behaves
+    # like on glass (Gueorguiev et al. 2016, Sci. Rep. 6). Texture: as-printed SLA/DLP Ra
+    # 1-3 um (Rq ~1.25 Ra) with the exposure raster of the laser spot / projector pixel
+    # (~85 um on a laser SLA printer) left on the top face.
     "resin": Material(
         name="resin",
-        friction=0.55,
-        contact_timeconst_s=0.0025,
-        contact_dampratio=1.0,
-        density_kg_m3=1180.0,
+        friction=FrictionLaw(kinetic=0.80, static=0.96),
         texture=Texture(
-            roughness_rms_m=1.5e-6,
-            correlation_length_m=60e-6,
-            periodic=(Periodic(wavelength_m=0.4e-3, amplitude_m=3.0e-6),),
+            roughness_rms_m=1.9e-6,
+            correlation_length_m=40e-6,
+            periodic=(Periodic(wavelength_m=85e-6, amplitude_m=1.0e-6),),
         ),
     ),
-    # Planed hardwood (beech): skin-on-wood 0.5-0.8 (Derler & Gerhardt 2012); sanded wood
-    # Rq ~5-10 um; earlywood/latewood grain bands ~0.5-1.5 mm wide, ~10 um relief; fibres
-    # dissipate (dampratio > 1). Beech ~0.70 g/cm3.
+    # Planed and sanded beech. Friction: the finger on raw (unfinished) wood gives the
+    # lowest coefficients of the woods and finishes measured, from 0.22 (Gott & Byrne
+    # 2013, J. Emerg. Investig. 3); rough, porous surfaces cut the real contact area of a
+    # soft pad. Texture: sanded hardwood Ra ~3-8 um rising with grit size (Gurau, Irle &
+    # Buchner 2019, BioResources 14); vessels and fibres give the short-scale roughness,
+    # the growth rings a slow relief of a few um every 2-5 mm (ring widths 2-8 mm:
+    # Adamopoulos et al. 2009, Eur. J. Wood Prod. 67).
     "wood": Material(
         name="wood",
-        friction=0.70,
-        contact_timeconst_s=0.003,
-        contact_dampratio=1.3,
-        density_kg_m3=700.0,
+        friction=FrictionLaw(kinetic=0.50, static=0.60),
         texture=Texture(
             roughness_rms_m=6.0e-6,
-            correlation_length_m=200e-6,
-            periodic=(Periodic(wavelength_m=0.9e-3, amplitude_m=8.0e-6),),
+            correlation_length_m=120e-6,
+            periodic=(Periodic(wavelength_m=3.0e-3, amplitude_m=4.0e-6),),
         ),
     ),
-    # Milled aluminium 6061: skin-on-aluminium 0.3-0.5 (Derler & Gerhardt 2012); milled
-    # Ra ~0.4-0.8 um with feed marks at the ~0.1 mm feed per revolution; stiff and lightly damped
-    # (dampratio < 1: the hard surface rings). 2.70 g/cm3.
+    # Face-milled aluminium 6xxx. Friction: a finger pad on aluminium at 1 N, 0.6 (Seo et
+    # al. 2009, Ergonomics 52); palmar skin 0.38 +- 0.13 (Buchholz, Frederick & Armstrong
+    # 1988, Ergonomics 31). Texture: Ra 0.34-0.48 um (Chuchala et al. 2021, Materials 14)
+    # with feed marks at the feed per tooth (0.1 mm), peak-to-valley f^2 / (8 r) = 1.6 um
+    # for a 0.8 mm tool nose radius.
     "aluminum": Material(
         name="aluminum",
-        friction=0.40,
-        contact_timeconst_s=0.002,
-        contact_dampratio=0.8,
-        density_kg_m3=2700.0,
+        friction=FrictionLaw(kinetic=0.60, static=0.72),
         texture=Texture(
             roughness_rms_m=0.5e-6,
-            correlation_length_m=20e-6,
-            periodic=(Periodic(wavelength_m=0.1e-3, amplitude_m=0.4e-6),),
+            correlation_length_m=15e-6,
+            periodic=(Periodic(wavelength_m=0.1e-3, amplitude_m=0.8e-6),),
         ),
     ),
 }

@@ -3,18 +3,24 @@
 Bodies (x = sliding direction, z up; the specimen's plate top is z = 0):
 
 - ``specimen`` (mocap): base plate box + the convex pieces of the raised outline. It is
-  kinematic (clamped to the table); its vertical mocap position carries the surface
-  texture under the moving contact (see :mod:`synth.texture`), so texture acts through
-  the contact physics at the cost of one vector per step instead of a fine height field.
-- ``phalanx``: the rigid finger bone on the robot's tip: x and y slide joints held by stiff
-  position servos (the open-loop path), z slide joint pushed by a constant-force motor.
+  kinematic (clamped to the table); its vertical mocap position carries the height of the
+  surface texture under the simulated contact (see :mod:`synth.texture` and
+  :mod:`synth.closed_loop`), so texture acts through the contact physics at the cost of
+  one number per step instead of a fine height field.
+- ``phalanx``: the rigid finger bone on the robot's tip: x, y and z slide joints held by
+  stiff position servos; the robot's controller moves the x/y set points along the path
+  and the z set point to hold the normal force.
 - ``pad``: the soft skin pad (a sphere with soft contact) on the PDMS support, modelled as
   spring-damper joints (x, y, z shear/compression and pitch) between pad and phalanx.
 
+The skin's contact parameters are the finger's (one contact model for every material);
+the skin geom has the higher contact priority, so its friction, which the controller
+updates from the friction law as the slip speed and load change, is the contact's.
+
 Sensors: a force/torque pair at the pad mount (the load the phalanx and its strain gauges
-carry), an accelerometer on the pad (skin vibration), the pad's position, and a contact
-sensor (net force and centroid of the skin-specimen contacts) for ground truth and for
-the load distribution between the two PVDF films.
+carry, and the robot's wrist reading), an accelerometer on the pad, the pad's position,
+the velocity of the skin's bottom point (slip), and a contact sensor (net force, the
+deepest penetration and the centroid of the skin-specimen contacts).
 """
 
 from __future__ import annotations
@@ -32,7 +38,6 @@ import shapes
 from shapes import SPECIMEN
 
 from .config import Finger, Motion, SynthConfig
-from .materials import Material
 
 #: Sensor layout of the compiled model: name -> (first column, width) in ``sensordata``.
 SENSORS: tuple[tuple[str, int], ...] = (
@@ -40,13 +45,15 @@ SENSORS: tuple[tuple[str, int], ...] = (
     ("mount_torque", 3),
     ("pad_acc", 3),
     ("pad_pos", 3),
+    ("slip_vel", 3),
     ("contact", 10),  # contacts found, net force (3), net torque (3), force centroid (3)
+    ("contact_depth", 2),  # contacts found, the deepest contact's signed distance
 )
 
-#: Actuators: x position servo, y position servo, z force motor.
+#: Actuators: x, y and z position servos.
 N_CTRL = 3
-#: Control vector per step (MuJoCo's order): the 3 actuator controls, the external wrench
-#: on every body (6 each; the texture's tangential force on the pad), the specimen's
+#: Control vector per step (MuJoCo's order): the 3 servo set points, the external wrench
+#: on every body (6 each; the texture slope's tangential force on the pad), the specimen's
 #: mocap position (its texture height).
 CONTROL_SPEC = (
     mujoco.mjtState.mjSTATE_CTRL
@@ -89,18 +96,11 @@ class Scene:
     skin_geom: int
     qpos_index: dict[str, int]
 
-    def trial_model(self, material: Material, friction: float, timeconst_s: float):
-        """A copy of the base model with this trial's contact parameters.
-
-        ``friction`` and ``timeconst_s`` already include the per-specimen scatter. MuJoCo
-        combines the two geoms' friction with max() and their solref with solmix weights;
-        the skin carries the same values so the interface is exactly the material's.
-        """
+    def trial_model(self, friction: float) -> mujoco.MjModel:
+        """A copy of the base model for one trial, its skin friction set to ``friction``
+        (the controller changes it as the trial runs)."""
         m = copy.copy(self.model)
-        geoms = np.append(self.specimen_geoms, self.skin_geom)
-        m.geom_friction[geoms, 0] = friction
-        m.geom_solref[geoms, 0] = timeconst_s
-        m.geom_solref[geoms, 1] = material.contact_dampratio
+        m.geom_friction[self.skin_geom, 0] = friction
         return m
 
 
@@ -121,7 +121,15 @@ def build_spec(shape: str, finger: Finger, motion: Motion) -> mujoco.MjSpec:
     opt.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     opt.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
     opt.impratio = motion.impratio
-    contact = {"condim": 3, "solimp": list(finger.skin_solimp)}
+    # The skin's parameters rule every skin-specimen contact (priority): the specimen's
+    # own friction is never used.
+    skin_contact = {
+        "condim": 3,
+        "solref": list(finger.skin_solref),
+        "solimp": list(finger.skin_solimp),
+        "priority": 1,
+    }
+    contact = {"condim": 3}
 
     world = spec.worldbody
     specimen = world.add_body(name="specimen", mocap=True)
@@ -152,9 +160,7 @@ def build_spec(shape: str, finger: Finger, motion: Motion) -> mujoco.MjSpec:
     slide = mujoco.mjtJoint.mjJNT_SLIDE
     phalanx.add_joint(name="robot_x", type=slide, axis=[1, 0, 0])
     phalanx.add_joint(name="robot_y", type=slide, axis=[0, 1, 0])
-    phalanx.add_joint(
-        name="robot_z", type=slide, axis=[0, 0, 1], damping=motion.force_loop_damping_n_s_m
-    )
+    phalanx.add_joint(name="robot_z", type=slide, axis=[0, 0, 1])
     side = finger.pad_radius_m * 0.8
     phalanx.add_geom(
         name="bone",
@@ -194,10 +200,11 @@ def build_spec(shape: str, finger: Finger, motion: Motion) -> mujoco.MjSpec:
         size=[finger.pad_radius_m, 0, 0],
         mass=m_pad,
         rgba=[0.9, 0.75, 0.65, 1],
-        **contact,
+        **skin_contact,
     )
     pad.add_site(name="mount", pos=[0, 0, finger.pad_radius_m])
     pad.add_site(name="pad_center", pos=[0, 0, 0])
+    pad.add_site(name="skin_bottom", pos=[0, 0, -finger.pad_radius_m])
 
     def servo(name: str, joint: str) -> None:
         act = spec.add_actuator(name=name, target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
@@ -205,8 +212,7 @@ def build_spec(shape: str, finger: Finger, motion: Motion) -> mujoco.MjSpec:
 
     servo("drive_x", "robot_x")
     servo("drive_y", "robot_y")
-    push = spec.add_actuator(name="push_z", target="robot_z", trntype=mujoco.mjtTrn.mjTRN_JOINT)
-    push.set_to_motor()
+    servo("drive_z", "robot_z")
 
     sens = mujoco.mjtSensor
     site = mujoco.mjtObj.mjOBJ_SITE
@@ -216,6 +222,9 @@ def build_spec(shape: str, finger: Finger, motion: Motion) -> mujoco.MjSpec:
         name="pad_acc", type=sens.mjSENS_ACCELEROMETER, objtype=site, objname="pad_center"
     )
     spec.add_sensor(name="pad_pos", type=sens.mjSENS_FRAMEPOS, objtype=site, objname="pad_center")
+    spec.add_sensor(
+        name="slip_vel", type=sens.mjSENS_FRAMELINVEL, objtype=site, objname="skin_bottom"
+    )
     # Skin-specimen contacts reduced to their net force and torque (global frame) and the
     # force-weighted centroid: intprm = (data flags found|force|torque|pos, reduce=netforce, num).
     spec.add_sensor(
@@ -227,11 +236,23 @@ def build_spec(shape: str, finger: Finger, motion: Motion) -> mujoco.MjSpec:
         refname="specimen",
         intprm=[_CONTACT_DATA, _REDUCE_NETFORCE, 1],
     )
+    spec.add_sensor(
+        name="contact_depth",
+        type=sens.mjSENS_CONTACT,
+        objtype=mujoco.mjtObj.mjOBJ_GEOM,
+        objname="skin",
+        reftype=mujoco.mjtObj.mjOBJ_BODY,
+        refname="specimen",
+        intprm=[_FOUND | _DIST, _REDUCE_MINDIST, 1],
+    )
     return spec
 
 
-# mjtConDataField bits: found 1, force 2, torque 4, dist 8, pos 16; reduce 3 = netforce.
+# mjtConDataField bits: found 1, force 2, torque 4, dist 8, pos 16; reduce 1 = mindist,
+# 3 = netforce.
+_FOUND, _DIST = 1, 8
 _CONTACT_DATA = 1 | 2 | 4 | 16
+_REDUCE_MINDIST = 1
 _REDUCE_NETFORCE = 3
 
 

@@ -13,26 +13,24 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal
 
-from .config import PVDF, Acquisition, Finger, StrainGauge
-
-STANDARD_GRAVITY = 9.80665
+from . import contact
+from .config import PVDF, Acquisition, Finger, StrainGauge, SynthConfig
 
 
 @dataclass(frozen=True)
 class Mechanics:
-    """Physics-rate signals of a batch, each ``(b, n)`` (global frame unless noted).
+    """Physics-rate signals of a batch, each ``(b, n)`` unless noted.
 
     mount_force/mount_torque: load carried by the PDMS mount, in the pad's frame ``(b, n, 3)``.
-    pad_acc_z: vertical acceleration of the pad (skin), gravity included.
-    contact_force: net skin-specimen contact force on the specimen ``(b, n, 3)``.
-    contact_x_rel: force centroid along x relative to the pad centre.
+    contact_ahead_m: the contact's force centroid ahead of the pad's axis along the path
+        (0 without contact).
+    indentation_m: the skin's deepest penetration into the specimen (0 without contact).
     """
 
     mount_force: np.ndarray
     mount_torque: np.ndarray
-    pad_acc_z: np.ndarray
-    contact_force: np.ndarray
-    contact_x_rel: np.ndarray
+    contact_ahead_m: np.ndarray
+    indentation_m: np.ndarray
 
 
 def gauge_strains(mech: Mechanics, finger: Finger, sg: StrainGauge) -> np.ndarray:
@@ -70,29 +68,55 @@ def bridge_zero_v(sg: StrainGauge) -> float:
     return sg.excitation_v * (x / 4.0) / (1.0 + x / 2.0) * sg.amplifier_gain
 
 
-def film_loads(mech: Mechanics, finger: Finger) -> np.ndarray:
-    """Load on the front and rear films ``(b, 2, n)`` (N).
+def film_strains(mech: Mechanics, finger: Finger, pvdf: PVDF) -> np.ndarray:
+    """In-plane bending strain of the front and rear films ``(b, 2, n)``.
 
-    The skin spreads the contact load over both films; the share of the front film rises
-    smoothly with the contact centroid's position ahead of the pad centre (spread length
-    a third of the pad radius). The skin's own vibration adds an inertial load.
+    The skin over each film is pushed in by ``w``, the elastic surface deflection around
+    the contact (:func:`synth.contact.surface_deflection_m`) at the film's distance from the
+    contact centroid; the thin, stiff film bends about its own mid-plane over its length
+    ``L``, so its surface strain is ``4 (t / 2) w / L^2``.
     """
-    total = np.linalg.norm(mech.contact_force, axis=-1)
-    spread = finger.pad_radius_m / 3
-    front = 0.5 * (1.0 + np.tanh(mech.contact_x_rel / spread))
-    inertial = finger.film_skin_mass_kg * (mech.pad_acc_z - STANDARD_GRAVITY)
-    return np.stack([front * total + inertial, (1.0 - front) * total + inertial], axis=1)
+    out = []
+    for sign in (1.0, -1.0):  # front film ahead of the pad's axis, rear film behind it
+        distance = sign * pvdf.offset_m - mech.contact_ahead_m
+        w = contact.surface_deflection_m(distance, mech.indentation_m, finger.pad_radius_m)
+        out.append(2.0 * pvdf.thickness_m * w / pvdf.length_m**2)
+    return np.stack(out, axis=1)
 
 
-def pvdf_volts(load_n: np.ndarray, pvdf: PVDF, fs_hz: float) -> np.ndarray:
-    """Film charge ``d33 * load`` on its capacitance, loaded by the amplifier's input
-    resistance (first-order RC high-pass: below the corner the output follows the load
-    rate), times the amplifier gain."""
-    v_open = pvdf.d33_c_per_n * load_n / pvdf.capacitance_f
-    rc = pvdf.input_resistance_ohm * pvdf.capacitance_f
+def pvdf_volts(strain: np.ndarray, pvdf: PVDF, fs_hz: float) -> np.ndarray:
+    """Charge ``d31 E strain A`` into a charge amplifier: ``-q / C_f`` above the high-pass
+    corner of its feedback ``R_f C_f`` (first order: below the corner the output follows
+    the strain rate), times the post-amplifier gain."""
+    charge = pvdf.d31_c_per_n * pvdf.youngs_modulus_pa * strain * pvdf.area_m2
+    rc = pvdf.feedback_resistance_ohm * pvdf.feedback_capacitance_f
     b, a = signal.bilinear([rc, 0.0], [rc, 1.0], fs=fs_hz)
-    # Zero initial state: the film rests before the finger loads it at t = 0.
-    return signal.lfilter(b, a, v_open, axis=-1) * pvdf.amplifier_gain
+    # The finger has rested under load long before the record starts: the amplifier has
+    # settled to the initial strain (zero output for a constant input).
+    x = -charge / pvdf.feedback_capacitance_f
+    zi = signal.lfilter_zi(b, a) * x[..., :1]
+    v, _ = signal.lfilter(b, a, x, axis=-1, zi=zi)
+    return v * pvdf.post_gain
+
+
+def amplifier_noise_v(config: SynthConfig) -> np.ndarray:
+    """RMS output noise of each channel's amplifier ``(4,)`` (PVDF, PVDF, SG, SG): its
+    input noise density times its noise gain over its noise bandwidth (first-order
+    equivalent: pi / 2 times the channel's band edge)."""
+    pv, sg, acq = config.pvdf, config.strain_gauge, config.acquisition
+    noise_gain = 1.0 + pv.capacitance_f / pv.feedback_capacitance_f
+    pvdf_rms = (
+        pv.amplifier_noise_v_per_sqrt_hz
+        * noise_gain
+        * pv.post_gain
+        * math.sqrt(math.pi / 2 * acq.antialias_hz)
+    )
+    sg_rms = (
+        sg.amplifier_noise_v_per_sqrt_hz
+        * sg.amplifier_gain
+        * math.sqrt(math.pi / 2 * sg.lowpass_hz)
+    )
+    return np.array([pvdf_rms, pvdf_rms, sg_rms, sg_rms])
 
 
 def antialias(volts: np.ndarray, acq: Acquisition, fs_hz: float) -> np.ndarray:
@@ -107,17 +131,20 @@ def digitise(
     fs_hz: float,
     rngs: list[np.random.Generator],
     dc_coupled: np.ndarray,
+    amplifier_noise_v: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Add white noise, mains pickup and (on the ``dc_coupled`` channels) drift at the DAQ
-    rate, then quantise over +-range_v with ``adc_bits``. ``volts`` is
-    ``(b, channels, n)``; one generator per trial.
+    """Add white noise (the ADC's and, per channel, ``amplifier_noise_v`` RMS), mains
+    pickup and (on the ``dc_coupled`` channels) drift at the DAQ rate, then quantise over
+    +-range_v with ``adc_bits``. ``volts`` is ``(b, channels, n)``; one generator per trial.
 
     Raises ValueError when a trial saturates the ADC (it would return clipped data)."""
     _b, ch, n = volts.shape
+    amp = np.zeros(ch) if amplifier_noise_v is None else np.asarray(amplifier_noise_v)
+    noise_rms = np.sqrt(acq.noise_v_rms**2 + amp**2)
     t = np.arange(n) / fs_hz
     out = np.empty_like(volts)
     for i, rng in enumerate(rngs):
-        white = rng.standard_normal((ch, n)) * acq.noise_v_rms
+        white = rng.standard_normal((ch, n)) * noise_rms[:, None]
         phase = rng.uniform(0, 2 * math.pi, size=(ch, 1))
         mains = acq.mains_v * np.sin(2 * math.pi * acq.mains_hz * t + phase)
         drift = np.cumsum(rng.standard_normal((ch, n)), axis=1)

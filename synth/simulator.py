@@ -1,12 +1,19 @@
-"""Simulate trials: plan each trial's open-loop controls, roll them out in MuJoCo's C++
-threads (``mujoco.rollout``), and turn the physics into the four DAQ channels.
+"""Simulate trials: plan each trial's path and surface, run the robot's closed loop in
+MuJoCo's C++ threads (``mujoco.rollout``, one controller period at a time; see
+:mod:`synth.closed_loop`), and turn the physics into the four DAQ channels.
 
 A trial's timeline (physics step ``Motion.timestep_s``):
 
-1. load: the finger rests on the plate, pushed down with the target force (``settle_s``);
-2. slide: the robot accelerates to the target speed along the path (``ramp_s``) and holds it;
-3. window: 2 s of the DAQ's 1 kHz record, starting ``lead_s`` plus a random delay after
-   the slide starts, placed so that its centre passes over the specimen's centre.
+1. load: the finger rests on the plate, clear of the raised outline, pressed with the
+   target force (``settle_s``);
+2. slide: the robot accelerates to the target speed along the path (``ramp_s``) and holds
+   it; the start point is placed so that the skin first touches the raised outline
+   ``approach_s`` after the slide starts, whatever the speed;
+3. window: 2 s of the DAQ's 1 kHz record from the contact phase (the skin on the raised
+   outline, from its first touch of the entry edge to its last touch of the exit edge),
+   centred on that phase (plus the extraction's jitter). Every speed is cut the same way:
+   at 10 mm/s the window holds both edge crossings of a 16 mm outline, slower runs see
+   less of the shape around its middle, faster ones the whole crossing.
 
 All per-trial randomness derives from ``SeedSequence([trial seed, class index])``, spawned
 into independent streams (path, material, sensors, texture, noise), so a trial is
@@ -24,12 +31,15 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+import shapely
 from mujoco import rollout
 
+import shapes
 from shapes import SPECIMEN
 
+from . import contact, sensors, texture
 from . import scene as scene_mod
-from . import sensors, texture
+from .closed_loop import ClosedLoop, LoopTrial
 from .config import SynthConfig
 from .trial import N_SAMPLES, SAMPLE_RATE_HZ, WINDOW_S, Trial, TrialSpec, class_index
 
@@ -41,6 +51,8 @@ MAX_TRACKING_ERROR_M = 8e-3
 #: Longest tolerated contact gap. The skin may hop for a millisecond or two when stored
 #: shear snaps free at an edge's crest; longer means the finger left the specimen.
 MAX_CONTACT_GAP_S = 0.01
+#: Resolution of the search for the first touch along the path.
+TOUCH_STEP_M = 20e-6
 
 
 class SimulationError(RuntimeError):
@@ -49,28 +61,38 @@ class SimulationError(RuntimeError):
 
 @dataclass(frozen=True)
 class Plan:
-    """One trial's drawn conditions and open-loop inputs."""
+    """One trial's drawn conditions, its model, initial state and closed-loop inputs."""
 
     spec: TrialSpec
     model: mujoco.MjModel
     initial_qpos: np.ndarray
-    control: np.ndarray  # (steps, scene.CONTROL_SPEC size): drives, texture wrench, height
-    texture_force: np.ndarray  # (steps, 2): texture's tangential force on the finger (x, y)
-    specimen_z: np.ndarray  # (steps,): texture height the specimen is moved by
-    x_ref: np.ndarray  # commanded path x at each step
+    loop: LoopTrial
+    touch_step: int  # physics step at which the commanded path first touches the outline
     window_start: int  # physics step of the window's first DAQ sample
-    gains: np.ndarray  # (4,) sensor gain scatter factors
+    steps: int  # physics steps to simulate (a whole number of controller periods)
     noise_seed: np.random.SeedSequence
+
+    @property
+    def x_ref(self) -> np.ndarray:
+        return self.loop.x_ref
 
 
 def steps_per_sample(config: SynthConfig) -> int:
     return round(1.0 / (config.motion.timestep_s * SAMPLE_RATE_HZ))
 
 
-def n_steps(config: SynthConfig) -> int:
-    m = config.motion
-    total = m.settle_s + m.lead_s + config.variability.window_jitter_s + WINDOW_S
-    return round(total / m.timestep_s) + 2 * steps_per_sample(config)
+def n_steps(config: SynthConfig, speed_mm_s: float) -> int:
+    """Physics steps of every trial at ``speed_mm_s`` (before its speed scatter): up to the
+    latest possible window end over every outline, rounded up to a whole number of
+    controller periods."""
+    m, var = config.motion, config.variability
+    speed = speed_mm_s * 1e-3 * (1 - 3 * var.speed_rel)
+    phase_m = shapes.dims.MAX_EXTENT_RATIO * SPECIMEN.outline_size_m + 2 * _max_reach(config)
+    total = m.settle_s + m.ramp_s + m.approach_s + phase_m / (2 * speed)
+    total += WINDOW_S / 2 + var.window_jitter_s / 2
+    steps = round(total / m.timestep_s) + 2 * steps_per_sample(config)
+    k = m.control_steps
+    return -(-steps // k) * k
 
 
 def travel(t_slide: np.ndarray, speed_m_s: float, ramp_s: float) -> np.ndarray:
@@ -88,71 +110,109 @@ def _scatter(rng: np.random.Generator, rel: float, size=None) -> np.ndarray | fl
     return 1.0 + rel * np.clip(rng.standard_normal(size), -3, 3)
 
 
+def touch_distance_m(config: SynthConfig, force_n: float) -> float:
+    """Horizontal distance from the pad's axis to a raised edge at which the skin (sunk
+    into the plate by its Hertz indentation at ``force_n``) first touches the edge."""
+    r, h = config.finger.pad_radius_m, SPECIMEN.height_m
+    f = config.finger
+    sink = float(contact.hertz_indentation_m(force_n, r, f.skin_modulus_pa, f.skin_poisson))
+    return math.sqrt(max(r * r - (r - h - sink) ** 2, 0.0))
+
+
+def _max_reach(config: SynthConfig) -> float:
+    """The touch distance at the largest force of the scatter (the pad sinks deepest)."""
+    return touch_distance_m(config, 5.0)
+
+
+def contact_phase_m(
+    shape: str, y_offset_m: float, yaw_rad: float, reach_m: float
+) -> tuple[float, float]:
+    """Path coordinates ``(first, last)`` between which the pad's axis is within
+    ``reach_m`` of the raised outline (the path is ``(d cos yaw, y_offset + d sin yaw)``):
+    the skin's first touch of the entry edge and last touch of the exit edge."""
+    poly = shapes.outline(shape)
+    half = SPECIMEN.base_length_m / 2
+    d = np.arange(-half, half, TOUCH_STEP_M)
+    pts = shapely.points(d * math.cos(yaw_rad), y_offset_m + d * math.sin(yaw_rad))
+    near = np.flatnonzero(shapely.distance(pts, poly) <= reach_m)
+    if near.size == 0:
+        raise ValueError(f"the path at y = {y_offset_m * 1e3:.2f} mm misses the {shape} outline")
+    return float(d[near[0]]), float(d[near[-1]])
+
+
 def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
-    """Draw the trial's variability and build its model, initial state and controls."""
+    """Draw the trial's variability and build its model, initial state and loop inputs."""
     var, mot, finger = config.variability, config.motion, config.finger
     material = config.materials[spec.material]
     root = np.random.SeedSequence([spec.seed, class_index(spec.shape, spec.material)])
-    path_ss, material_ss, sensor_ss, texture_ss, noise_ss = root.spawn(5)
+    path_ss, material_ss, _sensor_ss, texture_ss, noise_ss = root.spawn(5)
     path = np.random.default_rng(path_ss)
     force = spec.force_n * _scatter(path, var.force_rel)
     speed = spec.speed_mm_s * 1e-3 * _scatter(path, var.speed_rel)
     y_offset = mot.path_y_m + path.uniform(-1, 1) * var.lateral_offset_m
     yaw = path.standard_normal() * var.yaw_rad
-    x_center = mot.window_center_x_m + path.standard_normal() * var.start_x_m
+    jitter = path.uniform(-0.5, 0.5) * var.window_jitter_s
+    friction_scale = float(_scatter(np.random.default_rng(material_ss), var.friction_rel))
+    d_in, d_out = contact_phase_m(spec.shape, y_offset, yaw, touch_distance_m(config, force))
+    d_start = d_in - speed * (mot.ramp_s / 2 + mot.approach_s)
+    t_touch = mot.settle_s + mot.ramp_s + mot.approach_s
+    t_middle = t_touch + (d_out - d_in) / (2 * speed)
     k = steps_per_sample(config)
-    window_start_s = mot.settle_s + mot.lead_s + path.uniform(0, 1) * var.window_jitter_s
-    window_start = k * round(window_start_s * SAMPLE_RATE_HZ)
+    window_start = k * round((t_middle - WINDOW_S / 2 + jitter) * SAMPLE_RATE_HZ)
 
-    mat_rng = np.random.default_rng(material_ss)
-    friction = material.friction * _scatter(mat_rng, var.friction_rel)
-    timeconst = material.contact_timeconst_s * _scatter(mat_rng, var.stiffness_rel)
-    gains = np.asarray(_scatter(np.random.default_rng(sensor_ss), var.gain_rel, size=4))
-
-    steps = n_steps(config)
+    steps = n_steps(config, spec.speed_mm_s)
     t = np.arange(steps) * mot.timestep_s
-    d = travel(t - mot.settle_s, speed, mot.ramp_s)
-    t_mid = window_start * mot.timestep_s + WINDOW_S / 2
-    d_mid = float(travel(t_mid - mot.settle_s, speed, mot.ramp_s))
-    x_ref = x_center + (d - d_mid) * math.cos(yaw)
-    y_ref = y_offset + (d - d_mid) * math.sin(yaw)
+    d = d_start + travel(t - mot.settle_s, speed, mot.ramp_s)
+    c, s = math.cos(yaw), math.sin(yaw)
+    x_ref, y_ref = d * c, y_offset + d * s
     _check_on_plate(spec, x_ref, y_ref, finger.pad_radius_m)
 
-    heights, slope = texture.felt_profile(
-        material.texture, finger, d * math.cos(yaw), np.random.default_rng(texture_ss)
+    s_path = d + y_offset * s  # path coordinate p . direction along the commanded path
+    surface = texture.felt_surface(
+        material.texture,
+        finger,
+        float(s_path[0]) - 2 * finger.pad_radius_m,
+        float(s_path[-1]) + 2 * finger.pad_radius_m,
+        np.random.default_rng(texture_ss),
     )
     sc = scene_mod.scene(spec.shape, config)
-    layout = scene_mod.control_layout(sc.model)
-    control = np.zeros((steps, layout["size"].stop))
-    control[:, layout["ctrl"]] = np.stack([x_ref, y_ref, np.full(steps, -force)], axis=1)
-    control[:, layout["mocap_pos"].start + 2] = heights
-    # The felt slope's tangential force on the finger, along the path, opposing the climb,
-    # applied at the skin's contact point (torque about the pad centre r x F, r = -R z).
-    push = -(1 + friction**2) * slope * force
-    wrench = np.zeros((steps, 6))
-    wrench[:, 0] = push * math.cos(yaw)
-    wrench[:, 1] = push * math.sin(yaw)
-    wrench[:, 3] = finger.pad_radius_m * wrench[:, 1]
-    wrench[:, 4] = -finger.pad_radius_m * wrench[:, 0]
-    control[:, layout["pad_wrench"]] = wrench
-
     qpos = np.zeros(sc.model.nq)
     qi = sc.qpos_index
     preload = force / finger.pdms_normal_stiffness_n_m
+    sink = float(
+        contact.hertz_indentation_m(
+            force, finger.pad_radius_m, finger.skin_modulus_pa, finger.skin_poisson
+        )
+    )
+    h0 = float(
+        texture.look_up(
+            np.array([surface.origin_m]), surface.height_m[None], np.array([[s_path[0]]])
+        )[0, 0]
+    )
     qpos[qi["robot_x"]] = x_ref[0]
     qpos[qi["robot_y"]] = y_ref[0]
-    qpos[qi["robot_z"]] = heights[0] - preload  # pad on the surface, PDMS pre-compressed
+    qpos[qi["robot_z"]] = h0 - sink - preload  # skin indented, PDMS pre-compressed
     qpos[qi["pdms_z"]] = preload
+    z_ref0 = qpos[qi["robot_z"]] - force / mot.servo_stiffness_n_m
+    mu0 = contact.friction_coefficient(material.friction, 0.0, force, friction_scale)
+    loop = LoopTrial(
+        x_ref=x_ref,
+        y_ref=y_ref,
+        force_n=force,
+        friction=material.friction,
+        friction_scale=friction_scale,
+        surface=surface,
+        direction=(c, s),
+        z_ref0=z_ref0,
+    )
     return Plan(
         spec=spec,
-        model=sc.trial_model(material, friction, timeconst),
+        model=sc.trial_model(float(mu0)),
         initial_qpos=qpos,
-        control=control,
-        texture_force=wrench[:, :2].copy(),
-        specimen_z=heights,
-        x_ref=x_ref,
+        loop=loop,
+        touch_step=round(t_touch / mot.timestep_s),
         window_start=window_start,
-        gains=gains,
+        steps=steps,
         noise_seed=noise_ss,
     )
 
@@ -178,63 +238,63 @@ def _describe(spec: TrialSpec) -> str:
 
 def _initial_states(plans: Sequence[Plan]) -> np.ndarray:
     out = []
+    lay = scene_mod.control_layout(plans[0].model)
     for p in plans:
         data = mujoco.MjData(p.model)
         data.qpos[:] = p.initial_qpos
-        mujoco.mj_setState(p.model, data, p.control[0], scene_mod.CONTROL_SPEC)
+        control = np.zeros(lay["size"].stop)
+        control[lay["ctrl"]] = (p.loop.x_ref[0], p.loop.y_ref[0], p.loop.z_ref0)
+        mujoco.mj_setState(p.model, data, control, scene_mod.CONTROL_SPEC)
         state = np.empty(mujoco.mj_stateSize(p.model, scene_mod.STATE_SPEC))
         mujoco.mj_getState(p.model, data, state, scene_mod.STATE_SPEC)
         out.append(state)
     return np.stack(out)
 
 
-def _roll(plans: Sequence[Plan], datas: list[mujoco.MjData]) -> np.ndarray:
-    """Roll out a chunk of same-shape plans; returns sensordata ``(b, steps, nsensordata)``."""
-    models = [p.model for p in plans]
-    control = np.stack([p.control for p in plans])
+def _roll(
+    plans: Sequence[Plan], datas: list[mujoco.MjData], config: SynthConfig
+) -> tuple[np.ndarray, np.ndarray]:
+    """Run a chunk of same-shape plans' closed loops; returns sensordata
+    ``(b, steps, nsensordata)`` and the specimen's texture heights ``(b, steps)``."""
     for d in datas:
-        mujoco.mj_resetData(models[0], d)
-    _, sens = rollout.rollout(
-        models,
-        datas,
-        _initial_states(plans),
-        control,
-        control_spec=scene_mod.CONTROL_SPEC,
-        nstep=control.shape[1],
-    )
+        mujoco.mj_resetData(plans[0].model, d)
+    loop = ClosedLoop([p.model for p in plans], [p.loop for p in plans], config)
+    sens, heights = loop.run(datas, _initial_states(plans), plans[0].steps, len(datas))
     warned = [w for d in datas for w in range(len(d.warning)) if d.warning[w].number > 0]
     if warned:
         if len(plans) > 1:  # find the culprit trial(s) one by one
             for p in plans:
-                _roll([p], datas[:1])
+                _roll([p], datas[:1], config)
         names = ", ".join(mujoco.mjtWarning(w).name for w in sorted(set(warned)))
         raise SimulationError(f"MuJoCo warning {names} while simulating {_describe(plans[0].spec)}")
-    return sens
+    return sens, heights
 
 
-def _process(plans: Sequence[Plan], sens: np.ndarray, config: SynthConfig) -> list[Trial]:
+def _process(
+    plans: Sequence[Plan], sens: np.ndarray, heights: np.ndarray, config: SynthConfig
+) -> list[Trial]:
     cols = scene_mod.sensor_columns()
     k = steps_per_sample(config)
     fs = SAMPLE_RATE_HZ * k
-    contact = sens[..., cols["contact"]]
+    contact_data = sens[..., cols["contact"]]
+    found = contact_data[..., 0] > 0
+    force = np.where(found[..., None], contact_data[..., 1:4], 0.0)
     pad_pos = sens[..., cols["pad_pos"]]
-    # Net force on the specimen: the simulated contacts plus the texture's tangential
-    # force (the finger's reaction to the felt slope), while in contact.
-    in_contact = (contact[..., 0] > 0)[..., None]
-    force = contact[..., 1:4].copy()
-    force[..., :2] -= np.stack([p.texture_force for p in plans]) * in_contact
+    direction = np.array([p.loop.direction for p in plans])[:, None, :]  # (b, 1, 2)
+    rel = contact_data[..., 7:9] - pad_pos[..., :2]
+    depth = sens[..., cols["contact_depth"]]
     mech = sensors.Mechanics(
         mount_force=sens[..., cols["mount_force"]],
         mount_torque=sens[..., cols["mount_torque"]],
-        pad_acc_z=sens[..., cols["pad_acc"]][..., 2],
-        contact_force=force,
-        contact_x_rel=np.where(contact[..., 0] > 0, contact[..., 7] - pad_pos[..., 0], 0.0),
+        contact_ahead_m=np.where(found, (rel * direction).sum(axis=-1), 0.0),
+        indentation_m=np.where(depth[..., 0] > 0, np.maximum(-depth[..., 1], 0.0), 0.0),
     )
     strain = sensors.gauge_strains(mech, config.finger, config.strain_gauge)
     sg = sensors.bridge_volts(strain, config.strain_gauge, fs)
-    pvdf = sensors.pvdf_volts(sensors.film_loads(mech, config.finger), config.pvdf, fs)
-    gains = np.stack([p.gains for p in plans])[:, :, None]
-    analog = sensors.antialias(np.concatenate([pvdf, sg], axis=1) * gains, config.acquisition, fs)
+    pvdf = sensors.pvdf_volts(
+        sensors.film_strains(mech, config.finger, config.pvdf), config.pvdf, fs
+    )
+    analog = sensors.antialias(np.concatenate([pvdf, sg], axis=1), config.acquisition, fs)
 
     idx = np.stack([p.window_start + k * np.arange(N_SAMPLES) for p in plans])
     rows = np.arange(len(plans))[:, None]
@@ -245,7 +305,9 @@ def _process(plans: Sequence[Plan], sens: np.ndarray, config: SynthConfig) -> li
         SAMPLE_RATE_HZ,
         [np.random.default_rng(p.noise_seed) for p in plans],
         dc_coupled=np.array([0.0, 0.0, 1.0, 1.0]),  # PVDF AC-coupled, strain gauges DC
+        amplifier_noise_v=sensors.amplifier_noise_v(config),
     )
+    slip = sens[..., cols["slip_vel"]]
     trials = []
     for i, p in enumerate(plans):
         at = idx[i]
@@ -259,9 +321,11 @@ def _process(plans: Sequence[Plan], sens: np.ndarray, config: SynthConfig) -> li
             "finger_x_m": pad_pos[i, at, 0],
             "finger_y_m": pad_pos[i, at, 1],
             "finger_z_m": pad_pos[i, at, 2] - config.finger.pad_radius_m,
-            "commanded_x_m": p.x_ref[at],
-            "contacts": contact[i, at, 0],
-            "specimen_z_m": p.specimen_z[at],
+            "commanded_x_m": p.loop.x_ref[at],
+            "slip_speed_m_s": np.hypot(slip[i, at, 0], slip[i, at, 1]),
+            "indentation_m": mech.indentation_m[i, at],
+            "contacts": contact_data[i, at, 0],
+            "specimen_z_m": heights[i, at],
         }
         _check_trial(p, truth, sens[i])
         truth = {name: np.ascontiguousarray(v) for name, v in truth.items()}
@@ -325,9 +389,10 @@ def simulate_batch(
         threads = os.cpu_count() or 1
     if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
         raise ValueError(f"threads must be an integer >= 1; got {threads!r}")
-    by_shape: dict[str, list[int]] = {}
+    # Rollout batches share a scene and a length: group by shape and speed.
+    by_shape: dict[tuple[str, float], list[int]] = {}
     for i, s in enumerate(specs):
-        by_shape.setdefault(s.shape, []).append(i)
+        by_shape.setdefault((s.shape, s.speed_mm_s), []).append(i)
     results: list[Trial | None] = [None] * len(specs)
     chunks = [
         members[start : start + CHUNK]
@@ -341,13 +406,13 @@ def simulate_batch(
         bar = tqdm(total=len(specs), unit="trial", desc="simulate")
     datas: dict[str, list[mujoco.MjData]] = {}
 
-    def roll(chunk: list[int]) -> tuple[list[Plan], np.ndarray]:
+    def roll(chunk: list[int]) -> tuple[list[Plan], tuple[np.ndarray, np.ndarray]]:
         shape = specs[chunk[0]].shape
         if shape not in datas:
             base = scene_mod.scene(shape, config).model
             datas[shape] = [mujoco.MjData(base) for _ in range(threads)]
         plans = [plan(specs[i], config) for i in chunk]
-        return plans, _roll(plans, datas[shape][: len(chunk)])
+        return plans, _roll(plans, datas[shape][: len(chunk)], config)
 
     # Pipeline: MuJoCo rolls the next chunk out in its C++ threads (GIL released) while
     # this thread turns the previous chunk's physics into signals.
@@ -356,9 +421,9 @@ def simulate_batch(
     try:
         pending = pool.submit(roll, chunks[0]) if chunks else None
         for n, chunk in enumerate(chunks):
-            plans, sens = pending.result()
+            plans, (sens, heights) = pending.result()
             pending = pool.submit(roll, chunks[n + 1]) if n + 1 < len(chunks) else None
-            for i, trial in zip(chunk, _process(plans, sens, config), strict=True):
+            for i, trial in zip(chunk, _process(plans, sens, heights, config), strict=True):
                 results[i] = trial
             if bar is not None:
                 bar.update(len(chunk))
@@ -374,23 +439,39 @@ def simulate_batch(
 def raw_rollout(
     specs: Sequence[TrialSpec], *, config: SynthConfig | None = None, threads: int | None = None
 ) -> float:
-    """Physics only, for speed references: the bare ``mujoco.rollout`` of ``specs``' scenes.
-
-    Controls are planned first (not timed); then the same rollouts as :func:`simulate_batch`
-    run without the sensor chain, checks or storage. Returns the rollout wall seconds.
+    """Physics only, for speed references: one open-loop ``mujoco.rollout`` call per chunk
+    of ``specs``' scenes, the same number of steps as :func:`simulate_batch`, with the
+    path and the initial force set point but no controller, texture, sensor chain, checks
+    or storage. Returns the rollout wall seconds.
     """
     config = _check_config(config)
     threads = threads or os.cpu_count() or 1
-    by_shape: dict[str, list[Plan]] = {}
+    by_shape: dict[tuple[str, float], list[Plan]] = {}
     for s in specs:
-        by_shape.setdefault(s.shape, []).append(plan(s, config))
+        by_shape.setdefault((s.shape, s.speed_mm_s), []).append(plan(s, config))
     wall = 0.0
     for group in by_shape.values():
+        steps = group[0].steps
         datas = [mujoco.MjData(group[0].model) for _ in range(threads)]
-        t0 = time.perf_counter()
+        lay = scene_mod.control_layout(group[0].model)
         for start in range(0, len(group), CHUNK):
-            _roll(group[start : start + CHUNK], datas)
-        wall += time.perf_counter() - t0
+            chunk = group[start : start + CHUNK]
+            control = np.zeros((len(chunk), steps, lay["size"].stop))
+            for i, p in enumerate(chunk):
+                control[i, :, 0] = p.loop.x_ref
+                control[i, :, 1] = p.loop.y_ref
+                control[i, :, 2] = p.loop.z_ref0
+            state0 = _initial_states(chunk)
+            t0 = time.perf_counter()
+            rollout.rollout(
+                [p.model for p in chunk],
+                datas,
+                state0,
+                control,
+                control_spec=scene_mod.CONTROL_SPEC,
+                nstep=steps,
+            )
+            wall += time.perf_counter() - t0
     return wall
 
 

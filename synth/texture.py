@@ -1,25 +1,30 @@
-"""Surface texture under the moving contact, as the specimen's vertical displacement.
+"""Surface texture of a specimen, as the height and slope the skin feels along the
+sliding direction.
 
-A 0.1 mm height field steps ~200x slower than convex meshes (MUJOCO-NOTES), so the
-texture does not live in the collision geometry. The finger's path is open-loop, so the
-height of the surface under the contact is known in advance as a function of time: the
-specimen (a mocap body) is moved vertically by that height at every physics step, and
-the contact, the PDMS springs and the skin respond to it like to real asperities.
+A 0.1 mm height field steps ~200x slower than convex meshes, so the texture does not
+live in the collision geometry. Instead each trial draws the specimen's surface profile
+along the sliding direction (roughness and periodic marks, random phase: the stroke
+passes over a different stretch of surface each time), and the robot controller's loop
+(:mod:`synth.closed_loop`) looks up, every control period, the height and slope under
+the *simulated* contact position: the specimen (a mocap body) is moved vertically by the
+height under the contact, and the slope's tangential push acts on the pad. A pad that
+sticks feels a constant height; a pad that slows down feels the texture slow down.
 
 The skin touches the surface only with its fingerprint ridges (parallel springs), so the
 pad follows the *mean* height under the ridges in contact, each ridge averaging over its
 own contact width. That comb-and-box filter is the fingerprint's role in the contact
 model: it passes wavelengths near the ridge spacing and averages finer ones out.
 
-The felt surface is also inclined by its local slope ``dh/ds``. A finger sliding up an
-incline with friction ``mu`` needs ``(mu + slope) / (1 - mu slope) ~ mu + (1 + mu^2) slope``
-times the normal force to move, so the slope adds a texture-driven tangential contact
-force ``(1 + mu^2) slope F_n``, applied at the skin's contact point (see simulator).
+The felt surface is also inclined by its local slope ``dh/ds``: the contact normal tilts,
+so the contact force gains a tangential component ``-slope * F_n`` (pointing downhill)
+that a flat collision surface does not produce; the controller applies it to the pad at
+the contact point from the simulated normal force.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import signal
@@ -62,17 +67,28 @@ def ridge_offsets(finger: Finger) -> np.ndarray:
     return pos - pos.mean()
 
 
-def felt_profile(
+@dataclass(frozen=True)
+class FeltSurface:
+    """Felt height and slope of one trial's specimen on a regular grid along the sliding
+    direction: ``height_m[i]`` and ``slope[i]`` at path coordinate ``origin_m + i * GRID_M``."""
+
+    origin_m: float
+    height_m: np.ndarray
+    slope: np.ndarray
+
+
+def felt_surface(
     texture: Texture,
     finger: Finger,
-    path_s_m: np.ndarray,
+    start_m: float,
+    stop_m: float,
     rng: np.random.Generator,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Height (m) the pad follows and its slope (dh/ds) at each path coordinate
-    ``path_s_m`` (m, increasing from 0)."""
+) -> FeltSurface:
+    """The felt surface over path coordinates ``start_m..stop_m`` (plus the fingerprint's
+    half-width on each side)."""
     offsets = ridge_offsets(finger)
-    margin = float(np.abs(offsets).max()) + finger.ridge_width_m + 2 * GRID_M
-    length = float(path_s_m.max()) + 2 * margin
+    margin = float(np.abs(offsets).max()) + finger.ridge_width_m + 4 * GRID_M
+    length = stop_m - start_m + 2 * margin
     h = profile(texture, length, rng)
     # Each ridge averages over its contact width (moving box filter on the grid).
     width = max(1, round(finger.ridge_width_m / GRID_M))
@@ -81,5 +97,44 @@ def felt_profile(
     grid = np.arange(h.size) * GRID_M
     felt = np.mean([np.interp(grid + o, grid, h) for o in offsets], axis=0)
     slope = np.gradient(felt, GRID_M)
-    s = path_s_m + margin
-    return np.interp(s, grid, felt), np.interp(s, grid, slope)
+    return FeltSurface(origin_m=start_m - margin, height_m=felt, slope=slope)
+
+
+def stack_surfaces(surfaces: list[FeltSurface]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(origins (b,), heights (b, n), slopes (b, n))``, shorter profiles padded with
+    their last value, for vectorised look-ups across a batch."""
+    n = max(s.height_m.size for s in surfaces)
+    heights = np.empty((len(surfaces), n))
+    slopes = np.empty((len(surfaces), n))
+    for i, s in enumerate(surfaces):
+        heights[i, : s.height_m.size] = s.height_m
+        heights[i, s.height_m.size :] = s.height_m[-1]
+        slopes[i, : s.slope.size] = s.slope
+        slopes[i, s.slope.size :] = 0.0
+    return np.array([s.origin_m for s in surfaces]), heights, slopes
+
+
+def look_up(origins: np.ndarray, table: np.ndarray, coordinate_m: np.ndarray) -> np.ndarray:
+    """Linear interpolation of each trial's ``table`` row at ``coordinate_m`` ``(b, k)``
+    (clamped to the row's ends); elementwise per trial, so batch-independent."""
+    pos = (coordinate_m - origins[:, None]) / GRID_M
+    n = table.shape[1]
+    pos = np.clip(pos, 0.0, n - 1.000001)
+    i0 = pos.astype(np.intp)
+    w = pos - i0
+    rows = np.arange(table.shape[0])[:, None]
+    return table[rows, i0] * (1.0 - w) + table[rows, i0 + 1] * w
+
+
+def look_up2(
+    origins: np.ndarray, first: np.ndarray, second: np.ndarray, coordinate_m: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`look_up` of two tables on the same grid at once."""
+    pos = (coordinate_m - origins[:, None]) * (1.0 / GRID_M)
+    np.clip(pos, 0.0, first.shape[1] - 1.000001, out=pos)
+    i0 = pos.astype(np.intp)
+    w = pos - i0
+    flat = i0 + (np.arange(first.shape[0]) * first.shape[1])[:, None]
+    a0, a1 = first.ravel()[flat], first.ravel()[flat + 1]
+    b0, b1 = second.ravel()[flat], second.ravel()[flat + 1]
+    return a0 + (a1 - a0) * w, b0 + (b1 - b0) * w

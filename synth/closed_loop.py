@@ -1,0 +1,220 @@
+"""The robot controller and the surface's response, closed around the simulated state.
+
+MuJoCo rolls a batch of trials forward one controller period at a time
+(``Motion.control_period_s``, a few physics steps, in ``mujoco.rollout``'s C++ threads);
+between periods this module reads each trial's simulated state from its sensors and sets
+the next period's inputs from it:
+
+- **force loop** (the robot's force mode): an integral controller on the normal load the
+  wrist measures (the pad mount's force, averaged over the period) moves the set point of
+  the stiff z servo; its gain gives the closed loop ``Motion.force_loop_bandwidth_hz``
+  on the series stiffness of servo, PDMS support and skin contact;
+- **friction**: the skin's coefficient follows the material's :class:`FrictionLaw` at the
+  simulated slip speed of the skin's bottom point and the simulated normal force;
+- **texture**: the height and slope of the felt surface under the simulated contact
+  position, extrapolated over the period with the contact's simulated velocity over the
+  last period (zero when the pad sticks), drive the
+  specimen's height and the slope's tangential push on the pad (at the contact point).
+
+Nothing here sees the planned path except the x/y servo set points themselves; every
+texture and friction input comes from where the pad is and how it moves. Each trial's
+inputs depend only on its own state (elementwise arithmetic over the batch), so a trial's
+result does not depend on the batch it runs in.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+from mujoco import _rollout
+
+from . import contact
+from . import scene as scene_mod
+from . import texture as texture_mod
+from .config import SynthConfig
+from .materials import FrictionLaw
+from .texture import FeltSurface
+
+
+@dataclass(frozen=True)
+class LoopTrial:
+    """One trial's inputs to the closed loop.
+
+    x_ref, y_ref: ``(steps,)`` the robot's x/y path set points; force_n: the normal force
+    set point; friction: the material's law and ``friction_scale`` this stroke's scatter
+    factor; surface: the felt texture along the path direction ``direction`` (unit x/y
+    vector), whose path coordinate is ``s = p . direction``; z_ref0: initial z set point.
+    """
+
+    x_ref: np.ndarray
+    y_ref: np.ndarray
+    force_n: float
+    friction: FrictionLaw
+    friction_scale: float
+    surface: FeltSurface
+    direction: tuple[float, float]
+    z_ref0: float
+
+
+def force_loop_gain_m_per_n_s(config: SynthConfig, force_n: float) -> float:
+    """Integral gain (m/s per N of force error) for the configured loop bandwidth.
+
+    The loop moves the servo set point; the load changes by the series stiffness of the
+    servo, the PDMS support and the skin's Hertz contact (tangent stiffness
+    ``1.5 F / delta`` at the set force), so a gain of ``2 pi f / k_series`` closes the loop
+    at ``f``.
+    """
+    f, m = config.finger, config.motion
+    delta = float(
+        contact.hertz_indentation_m(force_n, f.pad_radius_m, f.skin_modulus_pa, f.skin_poisson)
+    )
+    k_skin = 1.5 * force_n / delta
+    k_series = 1.0 / (
+        1.0 / m.servo_stiffness_n_m + 1.0 / f.pdms_normal_stiffness_n_m + 1.0 / k_skin
+    )
+    return 2 * math.pi * m.force_loop_bandwidth_hz / k_series
+
+
+class ClosedLoop:
+    """Runs a batch of same-shape trials (``models`` share one scene) to ``steps`` steps;
+    returns sensordata ``(b, steps, nsensordata)`` and the specimen heights ``(b, steps)``.
+    """
+
+    def __init__(
+        self, models: Sequence[mujoco.MjModel], trials: Sequence[LoopTrial], config: SynthConfig
+    ) -> None:
+        self.models = list(models)
+        self.trials = list(trials)
+        self.config = config
+        base = self.models[0]
+        self.layout = scene_mod.control_layout(base)
+        self.cols = scene_mod.sensor_columns()
+        self.skin = mujoco.mj_name2id(base, mujoco.mjtObj.mjOBJ_GEOM, "skin")
+        self.nq, self.nv = base.nq, base.nv
+        b = len(self.trials)
+        self.force = np.array([t.force_n for t in self.trials])
+        self.gain = np.array([force_loop_gain_m_per_n_s(config, t.force_n) for t in self.trials])
+        self.kinetic = np.array([t.friction.kinetic for t in self.trials])
+        self.static = np.array([t.friction.static for t in self.trials])
+        self.v_stribeck = np.array([t.friction.stribeck_velocity_m_s for t in self.trials])
+        self.load_exp = np.array([t.friction.load_exponent for t in self.trials])
+        self.scale = np.array([t.friction_scale for t in self.trials])
+        self.dir = np.array([t.direction for t in self.trials])  # (b, 2)
+        self.origins, self.heights, self.slopes = texture_mod.stack_surfaces(
+            [t.surface for t in self.trials]
+        )
+        self.x_ref = np.stack([t.x_ref for t in self.trials])
+        self.y_ref = np.stack([t.y_ref for t in self.trials])
+        self.z_ref = np.array([t.z_ref0 for t in self.trials])
+        self.b = b
+
+    def friction(self, slip_speed: np.ndarray, normal_n: np.ndarray) -> np.ndarray:
+        """Coefficient of each trial's law at its slip speed and normal load."""
+        f = np.maximum(normal_n, 0.05)
+        weak = np.exp(-np.square(slip_speed / self.v_stribeck))
+        return (self.kinetic + (self.static - self.kinetic) * weak) * f**self.load_exp * self.scale
+
+    def run(
+        self, datas: Sequence[mujoco.MjData], initial_state: np.ndarray, steps: int, nthread: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Roll the batch ``steps`` physics steps (a multiple of the update period) from
+        ``initial_state`` ``(b, nstate)`` on ``datas`` (one per thread)."""
+        cfg = self.config
+        mot = cfg.motion
+        dt, k = mot.timestep_s, mot.surface_steps
+        if steps % k:
+            raise ValueError(f"steps ({steps}) must be a multiple of the update period ({k})")
+        nseg = steps // k
+        control_every = mot.control_steps // k  # force-loop updates happen every n periods
+        period = k * dt
+        radius = cfg.finger.pad_radius_m
+        b, base = self.b, self.models[0]
+        nstate, nsens = initial_state.shape[1], base.nsensordata
+        lay, cols = self.layout, self.cols
+        # Outputs laid out period-major so each period's block is contiguous for rollout.
+        sens_out = np.empty((nseg, b, k, nsens))
+        height_out = np.empty((nseg, b, k))
+        control = np.zeros((b, k, lay["size"].stop))
+        state_buf = np.empty((b, k, nstate))
+        x_seg = self.x_ref.reshape(b, nseg, k)
+        y_seg = self.y_ref.reshape(b, nseg, k)
+        state = np.ascontiguousarray(initial_state)
+        warm = np.zeros((b, self.nv))
+        qvel = slice(1 + self.nq, 1 + self.nq + self.nv)
+        frictions = [m.geom_friction for m in self.models]
+        warnings = [[d.warning[i] for i in range(len(d.warning))] for d in datas]
+        c_found = cols["contact"].start
+        c_fz, c_cen = c_found + 3, slice(c_found + 7, c_found + 9)
+        c_pad = slice(cols["pad_pos"].start, cols["pad_pos"].start + 2)
+        c_slip = slice(cols["slip_vel"].start, cols["slip_vel"].start + 2)
+        c_wrist = cols["mount_force"].start + 2
+        mx, mz = lay["pad_wrench"].start, lay["mocap_pos"].start + 2
+        direction = self.dir
+        ahead = np.arange(1, k + 1) * dt
+
+        # Before the first period: the pad rests at the start, loaded by the set force.
+        s_now = self.x_ref[:, 0] * direction[:, 0] + self.y_ref[:, 0] * direction[:, 1]
+        v_now = np.zeros(b)
+        slip_speed = np.zeros(b)
+        normal = self.force.copy()
+        wrist = self.force.copy()
+        wrist_sum = np.zeros(b)
+        runner = _rollout.Rollout(nthread=nthread if nthread > 1 else 0)
+        spec = int(scene_mod.CONTROL_SPEC)
+        for g in range(nseg):
+            if g % control_every == 0 and g:
+                # Force loop: integral action on the wrist's load over the last period.
+                wrist = wrist_sum / (control_every * k)
+                wrist_sum[:] = 0.0
+                self.z_ref += mot.control_period_s * self.gain * (wrist - self.force)
+            # Friction from the simulated slip and load.
+            for arr, value in zip(frictions, self.friction(slip_speed, normal), strict=True):
+                arr[self.skin, 0] = value
+            # Texture under the contact, extrapolated over the period.
+            h, slope = texture_mod.look_up2(
+                self.origins,
+                self.heights,
+                self.slopes,
+                s_now[:, None] + v_now[:, None] * ahead,
+            )
+            push = slope * -normal[:, None]
+            fx = push * direction[:, :1]
+            fy = push * direction[:, 1:]
+            control[:, :, 0] = x_seg[:, g]
+            control[:, :, 1] = y_seg[:, g]
+            control[:, :, 2] = self.z_ref[:, None]
+            control[:, :, mx] = fx
+            control[:, :, mx + 1] = fy
+            control[:, :, mx + 3] = radius * fy  # r x F at the contact, r = -R z
+            control[:, :, mx + 4] = -radius * fx
+            control[:, :, mz] = h
+            sens = sens_out[g]
+            runner.rollout(self.models, datas, k, spec, state, warm, control, state_buf, sens, None)
+            height_out[g] = h
+            if any(w.number for ws in warnings for w in ws):
+                return self._finish(sens_out, height_out, steps)
+            state = state_buf[:, k - 1].copy()
+            warm = (state_buf[:, k - 1, qvel] - state_buf[:, k - 2, qvel]) / dt
+            # The state the next period's inputs respond to.
+            last = sens[:, k - 1]
+            found = last[:, c_found] > 0
+            normal = np.where(found, -last[:, c_fz], 0.0)
+            where = np.where(found[:, None], last[:, c_cen], last[:, c_pad])
+            s_next = (where * direction).sum(axis=1)
+            v_now = (s_next - s_now) / period
+            s_now = s_next
+            slip = last[:, c_slip]
+            slip_speed = np.hypot(slip[:, 0], slip[:, 1])
+            wrist_sum -= sens[:, :, c_wrist].sum(axis=1)
+        return self._finish(sens_out, height_out, steps)
+
+    @staticmethod
+    def _finish(sens_out, height_out, steps):
+        _, b, _, nsens = sens_out.shape
+        sens = np.ascontiguousarray(sens_out.transpose(1, 0, 2, 3)).reshape(b, steps, nsens)
+        heights = np.ascontiguousarray(height_out.transpose(1, 0, 2)).reshape(b, steps)
+        return sens, heights
