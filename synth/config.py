@@ -125,14 +125,14 @@ class Motion:
     #: between extrapolated along the contact's velocity.
     surface_update_s: float = 0.002
     #: Load phase: the finger presses on the plate, clear of the raised outline, before it
-    #: starts sliding.
-    settle_s: float = 0.10
+    #: starts sliding (it starts at rest under load, so the force loop only trims).
+    settle_s: float = 0.05
     #: Velocity ramp at the slide start (the robot's acceleration limit).
     ramp_s: float = 0.02
     #: Sliding time from the slide start to the first touch of the raised outline: the
     #: start point is placed this far (in time, at the trial's speed) ahead of the outline,
     #: so the skin crosses the entry edge as a sliding finger does.
-    approach_s: float = 0.20
+    approach_s: float = 0.10
     #: Stiffness of the robot's x/y/z position servos: 1 N of friction deflects the tip
     #: 0.05 mm (an arm's tip is stiff; soft drives let friction creep), and the servo mode
     #: with the phalanx mass (~100 Hz) stays resolved by the physics step.
@@ -146,8 +146,11 @@ class Motion:
     #: MuJoCo impratio: frictional/normal constraint impedance; 10 makes the elliptic
     #: cone's tangential/normal match the coefficient (0.83 at 1 vs 0.90 for 0.9).
     impratio: float = 100.0
-    #: Nominal lateral (y) position of the path over the specimen centre.
-    path_y_m: float = 0.0
+    #: Lateral (y) position of the path relative to the specimen's centre line. 2 mm off
+    #: the axis: the skin crosses the edges obliquely, as a finger slid across an object
+    #: rarely runs along its symmetry axis, so the edges' lateral push has one sign in
+    #: every trial instead of flipping with the placement scatter.
+    path_y_m: float = 0.002
     #: False: slide on the bare base plate (sensor calibration runs, physics checks).
     raised_shape: bool = True
 
@@ -211,8 +214,8 @@ class Variability:
     """
 
     #: Lateral (y) offset of the path: uniform within +- this. UR arms repeat to +-0.1 mm;
-    #: re-fixing the specimen between series adds a few tenths of a millimetre.
-    lateral_offset_m: float = 0.5e-3
+    #: the specimen's play in its fixture adds about as much again.
+    lateral_offset_m: float = 0.25e-3
     #: Yaw of the path relative to the specimen (fixture alignment).
     yaw_rad: float = 0.01
     #: Relative error of the force set point and of the path speed.

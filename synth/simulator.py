@@ -69,7 +69,7 @@ class Plan:
     loop: LoopTrial
     touch_step: int  # physics step at which the commanded path first touches the outline
     window_start: int  # physics step of the window's first DAQ sample
-    steps: int  # physics steps to simulate (a whole number of controller periods)
+    steps: int  # physics steps the window needs (a whole number of controller periods)
     noise_seed: np.random.SeedSequence
 
     @property
@@ -81,18 +81,20 @@ def steps_per_sample(config: SynthConfig) -> int:
     return round(1.0 / (config.motion.timestep_s * SAMPLE_RATE_HZ))
 
 
-def n_steps(config: SynthConfig, speed_mm_s: float) -> int:
-    """Physics steps of every trial at ``speed_mm_s`` (before its speed scatter): up to the
-    latest possible window end over every outline, rounded up to a whole number of
-    controller periods."""
+def n_steps(config: SynthConfig, speed_mm_s: float, force_n: float) -> int:
+    """Most physics steps any trial at ``speed_mm_s`` and ``force_n`` (before their
+    scatter) can need:
+    up to the latest possible window end over every outline, rounded up to a whole number
+    of controller periods. Paths are planned this long; a batch runs only as many steps
+    as its trials' windows need."""
     m, var = config.motion, config.variability
     speed = speed_mm_s * 1e-3 * (1 - 3 * var.speed_rel)
-    phase_m = shapes.dims.MAX_EXTENT_RATIO * SPECIMEN.outline_size_m + 2 * _max_reach(config)
+    reach = touch_distance_m(config, force_n * (1 + 3 * var.force_rel))
+    phase_m = shapes.dims.MAX_EXTENT_RATIO * SPECIMEN.outline_size_m + 2 * reach
     total = m.settle_s + m.ramp_s + m.approach_s + phase_m / (2 * speed)
     total += WINDOW_S / 2 + var.window_jitter_s / 2
     steps = round(total / m.timestep_s) + 2 * steps_per_sample(config)
-    k = m.control_steps
-    return -(-steps // k) * k
+    return _whole_periods(steps, m.control_steps)
 
 
 def travel(t_slide: np.ndarray, speed_m_s: float, ramp_s: float) -> np.ndarray:
@@ -117,11 +119,6 @@ def touch_distance_m(config: SynthConfig, force_n: float) -> float:
     f = config.finger
     sink = float(contact.hertz_indentation_m(force_n, r, f.skin_modulus_pa, f.skin_poisson))
     return math.sqrt(max(r * r - (r - h - sink) ** 2, 0.0))
-
-
-def _max_reach(config: SynthConfig) -> float:
-    """The touch distance at the largest force of the scatter (the pad sinks deepest)."""
-    return touch_distance_m(config, 5.0)
 
 
 def contact_phase_m(
@@ -160,8 +157,7 @@ def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
     k = steps_per_sample(config)
     window_start = k * round((t_middle - WINDOW_S / 2 + jitter) * SAMPLE_RATE_HZ)
 
-    steps = n_steps(config, spec.speed_mm_s)
-    t = np.arange(steps) * mot.timestep_s
+    t = np.arange(n_steps(config, spec.speed_mm_s, spec.force_n)) * mot.timestep_s
     d = d_start + travel(t - mot.settle_s, speed, mot.ramp_s)
     c, s = math.cos(yaw), math.sin(yaw)
     x_ref, y_ref = d * c, y_offset + d * s
@@ -212,9 +208,13 @@ def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
         loop=loop,
         touch_step=round(t_touch / mot.timestep_s),
         window_start=window_start,
-        steps=steps,
+        steps=_whole_periods(window_start + (N_SAMPLES + 1) * k, mot.control_steps),
         noise_seed=noise_ss,
     )
+
+
+def _whole_periods(steps: int, period: int) -> int:
+    return -(-steps // period) * period
 
 
 def _check_on_plate(spec: TrialSpec, x_ref: np.ndarray, y_ref: np.ndarray, radius: float) -> None:
@@ -259,7 +259,8 @@ def _roll(
     for d in datas:
         mujoco.mj_resetData(plans[0].model, d)
     loop = ClosedLoop([p.model for p in plans], [p.loop for p in plans], config)
-    sens, heights = loop.run(datas, _initial_states(plans), plans[0].steps, len(datas))
+    steps = max(p.steps for p in plans)
+    sens, heights = loop.run(datas, _initial_states(plans), steps, len(datas))
     warned = [w for d in datas for w in range(len(d.warning)) if d.warning[w].number > 0]
     if warned:
         if len(plans) > 1:  # find the culprit trial(s) one by one
@@ -451,15 +452,15 @@ def raw_rollout(
         by_shape.setdefault((s.shape, s.speed_mm_s), []).append(plan(s, config))
     wall = 0.0
     for group in by_shape.values():
-        steps = group[0].steps
+        steps = max(p.steps for p in group)
         datas = [mujoco.MjData(group[0].model) for _ in range(threads)]
         lay = scene_mod.control_layout(group[0].model)
         for start in range(0, len(group), CHUNK):
             chunk = group[start : start + CHUNK]
             control = np.zeros((len(chunk), steps, lay["size"].stop))
             for i, p in enumerate(chunk):
-                control[i, :, 0] = p.loop.x_ref
-                control[i, :, 1] = p.loop.y_ref
+                control[i, :, 0] = p.loop.x_ref[:steps]
+                control[i, :, 1] = p.loop.y_ref[:steps]
                 control[i, :, 2] = p.loop.z_ref0
             state0 = _initial_states(chunk)
             t0 = time.perf_counter()
