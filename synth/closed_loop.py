@@ -6,15 +6,16 @@ between periods this module reads each trial's simulated state from its sensors 
 the next period's inputs from it:
 
 - **force loop** (the robot's force mode): an integral controller on the normal load the
-  wrist measures (the pad mount's force, averaged over the period) moves the set point of
-  the stiff z servo; its gain gives the closed loop ``Motion.force_loop_bandwidth_hz``
+  wrist measures (the force the z drive transmits, averaged over the period) moves the
+  set point of the stiff z servo; its gain gives the closed loop ``Motion.force_loop_bandwidth_hz``
   on the series stiffness of servo, PDMS support and skin contact;
 - **friction**: the skin's coefficient follows the material's :class:`FrictionLaw` at the
   simulated slip speed of the skin's bottom point and the simulated normal force;
-- **texture**: the height and slope of the felt surface under the simulated contact
-  position, extrapolated over the period with the contact's simulated velocity over the
-  last period (zero when the pad sticks), drive the
-  specimen's height and the slope's tangential push on the pad (at the contact point).
+- **texture**: the height and slope of the felt surface under the skin's contacting
+  material (the skin's bottom point: it moves over the surface only when the skin
+  slips, so a stuck pad feels a still surface), extrapolated over the period with its
+  simulated slip velocity, drive the specimen's height and the slope's tangential push
+  on the pad (at the contact point).
 
 Nothing here sees the planned path except the x/y servo set points themselves; every
 texture and friction input comes from where the pad is and how it moves. Each trial's
@@ -130,7 +131,6 @@ class ClosedLoop:
             raise ValueError(f"steps ({steps}) must be a multiple of the update period ({k})")
         nseg = steps // k
         control_every = mot.control_steps // k  # force-loop updates happen every n periods
-        period = k * dt
         radius = cfg.finger.pad_radius_m
         b, base = self.b, self.models[0]
         nstate, nsens = initial_state.shape[1], base.nsensordata
@@ -148,10 +148,10 @@ class ClosedLoop:
         frictions = [m.geom_friction for m in self.models]
         warnings = [[d.warning[i] for i in range(len(d.warning))] for d in datas]
         c_found = cols["contact"].start
-        c_fz, c_cen = c_found + 3, slice(c_found + 7, c_found + 9)
-        c_pad = slice(cols["pad_pos"].start, cols["pad_pos"].start + 2)
+        c_fz = c_found + 3
+        c_skin = slice(cols["skin_pos"].start, cols["skin_pos"].start + 2)
         c_slip = slice(cols["slip_vel"].start, cols["slip_vel"].start + 2)
-        c_wrist = cols["mount_force"].start + 2
+        c_wrist = cols["drive_force"].start
         mx, mz = lay["pad_wrench"].start, lay["mocap_pos"].start + 2
         direction = self.dir
         ahead = np.arange(1, k + 1) * dt
@@ -203,11 +203,9 @@ class ClosedLoop:
             last = sens[:, k - 1]
             found = last[:, c_found] > 0
             normal = np.where(found, -last[:, c_fz], 0.0)
-            where = np.where(found[:, None], last[:, c_cen], last[:, c_pad])
-            s_next = (where * direction).sum(axis=1)
-            v_now = (s_next - s_now) / period
-            s_now = s_next
+            s_now = (last[:, c_skin] * direction).sum(axis=1)
             slip = last[:, c_slip]
+            v_now = (slip * direction).sum(axis=1)
             slip_speed = np.hypot(slip[:, 0], slip[:, 1])
             wrist_sum -= sens[:, :, c_wrist].sum(axis=1)
         return self._finish(sens_out, height_out, steps)

@@ -133,6 +133,9 @@ class Motion:
     #: start point is placed this far (in time, at the trial's speed) ahead of the outline,
     #: so the skin crosses the entry edge as a sliding finger does.
     approach_s: float = 0.10
+    #: The window starts at least this long after the robot reaches speed (the start's
+    #: transient in the friction and the PDMS shear has died out by then).
+    start_transient_s: float = 0.05
     #: Stiffness of the robot's x/y/z position servos: 1 N of friction deflects the tip
     #: 0.05 mm (an arm's tip is stiff; soft drives let friction creep), and the servo mode
     #: with the phalanx mass (~100 Hz) stays resolved by the physics step.
@@ -163,6 +166,7 @@ class Motion:
             "settle_s",
             "ramp_s",
             "approach_s",
+            "start_transient_s",
             "servo_stiffness_n_m",
             "servo_damping_n_s_m",
             "force_loop_bandwidth_hz",

@@ -18,9 +18,11 @@ the skin geom has the higher contact priority, so its friction, which the contro
 updates from the friction law as the slip speed and load change, is the contact's.
 
 Sensors: a force/torque pair at the pad mount (the load the phalanx and its strain gauges
-carry, and the robot's wrist reading), an accelerometer on the pad, the pad's position,
-the velocity of the skin's bottom point (slip), and a contact sensor (net force, the
-deepest penetration and the centroid of the skin-specimen contacts).
+carry), the z servo's force (the robot's wrist reading), the pad's rocking angle, an
+accelerometer on the pad, the pad's position,
+the position and velocity of the skin's bottom point (the skin material that rubs on
+the surface: it moves over the surface only when the skin slips), and contact sensors
+(net force, the deepest penetration and the centroid of the skin-specimen contacts).
 """
 
 from __future__ import annotations
@@ -45,9 +47,12 @@ SENSORS: tuple[tuple[str, int], ...] = (
     ("mount_torque", 3),
     ("pad_acc", 3),
     ("pad_pos", 3),
+    ("skin_pos", 3),
     ("slip_vel", 3),
     ("contact", 10),  # contacts found, net force (3), net torque (3), force centroid (3)
     ("contact_depth", 2),  # contacts found, the deepest contact's signed distance
+    ("drive_force", 1),  # force of the z servo on the phalanx (the robot's wrist reading)
+    ("pad_pitch", 1),  # rocking of the pad on its support (rad)
 )
 
 #: Actuators: x, y and z position servos.
@@ -222,6 +227,7 @@ def build_spec(shape: str, finger: Finger, motion: Motion) -> mujoco.MjSpec:
         name="pad_acc", type=sens.mjSENS_ACCELEROMETER, objtype=site, objname="pad_center"
     )
     spec.add_sensor(name="pad_pos", type=sens.mjSENS_FRAMEPOS, objtype=site, objname="pad_center")
+    spec.add_sensor(name="skin_pos", type=sens.mjSENS_FRAMEPOS, objtype=site, objname="skin_bottom")
     spec.add_sensor(
         name="slip_vel", type=sens.mjSENS_FRAMELINVEL, objtype=site, objname="skin_bottom"
     )
@@ -244,6 +250,18 @@ def build_spec(shape: str, finger: Finger, motion: Motion) -> mujoco.MjSpec:
         reftype=mujoco.mjtObj.mjOBJ_BODY,
         refname="specimen",
         intprm=[_FOUND | _DIST, _REDUCE_MINDIST, 1],
+    )
+    spec.add_sensor(
+        name="drive_force",
+        type=sens.mjSENS_ACTUATORFRC,
+        objtype=mujoco.mjtObj.mjOBJ_ACTUATOR,
+        objname="drive_z",
+    )
+    spec.add_sensor(
+        name="pad_pitch",
+        type=sens.mjSENS_JOINTPOS,
+        objtype=mujoco.mjtObj.mjOBJ_JOINT,
+        objname="pdms_pitch",
     )
     return spec
 

@@ -21,7 +21,8 @@ from .config import PVDF, Acquisition, Finger, StrainGauge, SynthConfig
 class Mechanics:
     """Physics-rate signals of a batch, each ``(b, n)`` unless noted.
 
-    mount_force/mount_torque: load carried by the PDMS mount, in the pad's frame ``(b, n, 3)``.
+    mount_force/mount_torque: load carried by the PDMS mount, in the phalanx's frame
+        ``(b, n, 3)``.
     contact_ahead_m: the contact's force centroid ahead of the pad's axis along the path
         (0 without contact).
     indentation_m: the skin's deepest penetration into the specimen (0 without contact).

@@ -8,7 +8,8 @@ A trial's timeline (physics step ``Motion.timestep_s``):
    target force (``settle_s``);
 2. slide: the robot accelerates to the target speed along the path (``ramp_s``) and holds
    it; the start point is placed so that the skin first touches the raised outline
-   ``approach_s`` after the slide starts, whatever the speed;
+   ``approach_s`` after the slide starts (longer where a fast slide would otherwise
+   start its window before the robot is at speed);
 3. window: 2 s of the DAQ's 1 kHz record from the contact phase (the skin on the raised
    outline, from its first touch of the entry edge to its last touch of the exit edge),
    centred on that phase (plus the extraction's jitter). Every speed is cut the same way:
@@ -91,8 +92,8 @@ def n_steps(config: SynthConfig, speed_mm_s: float, force_n: float) -> int:
     speed = speed_mm_s * 1e-3 * (1 - 3 * var.speed_rel)
     reach = touch_distance_m(config, force_n * (1 + 3 * var.force_rel))
     phase_m = shapes.dims.MAX_EXTENT_RATIO * SPECIMEN.outline_size_m + 2 * reach
-    total = m.settle_s + m.ramp_s + m.approach_s + phase_m / (2 * speed)
-    total += WINDOW_S / 2 + var.window_jitter_s / 2
+    middle = max(m.approach_s + phase_m / (2 * speed), _earliest_middle_s(config))
+    total = m.settle_s + m.ramp_s + middle + WINDOW_S / 2 + var.window_jitter_s / 2
     steps = round(total / m.timestep_s) + 2 * steps_per_sample(config)
     return _whole_periods(steps, m.control_steps)
 
@@ -151,9 +152,11 @@ def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
     jitter = path.uniform(-0.5, 0.5) * var.window_jitter_s
     friction_scale = float(_scatter(np.random.default_rng(material_ss), var.friction_rel))
     d_in, d_out = contact_phase_m(spec.shape, y_offset, yaw, touch_distance_m(config, force))
-    d_start = d_in - speed * (mot.ramp_s / 2 + mot.approach_s)
-    t_touch = mot.settle_s + mot.ramp_s + mot.approach_s
-    t_middle = t_touch + (d_out - d_in) / (2 * speed)
+    half_phase_s = (d_out - d_in) / (2 * speed)
+    approach = max(mot.approach_s, _earliest_middle_s(config) - half_phase_s)
+    d_start = d_in - speed * (mot.ramp_s / 2 + approach)
+    t_touch = mot.settle_s + mot.ramp_s + approach
+    t_middle = t_touch + half_phase_s
     k = steps_per_sample(config)
     window_start = k * round((t_middle - WINDOW_S / 2 + jitter) * SAMPLE_RATE_HZ)
 
@@ -211,6 +214,13 @@ def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
         steps=_whole_periods(window_start + (N_SAMPLES + 1) * k, mot.control_steps),
         noise_seed=noise_ss,
     )
+
+
+def _earliest_middle_s(config: SynthConfig) -> float:
+    """Earliest window middle, from the moment the robot reaches speed: the window must not
+    start within ``Motion.start_transient_s`` of that, whatever its jitter."""
+    jitter = config.variability.window_jitter_s
+    return config.motion.start_transient_s + WINDOW_S / 2 + jitter / 2
 
 
 def _whole_periods(steps: int, period: int) -> int:
@@ -271,6 +281,14 @@ def _roll(
     return sens, heights
 
 
+def _unrock(vectors: np.ndarray, pitch: np.ndarray) -> np.ndarray:
+    """Vectors ``(..., 3)`` in the pad's frame, expressed in the phalanx's (rotation by
+    the pad's pitch about y)."""
+    c, s = np.cos(pitch), np.sin(pitch)
+    x, y, z = vectors[..., 0], vectors[..., 1], vectors[..., 2]
+    return np.stack([c * x + s * z, y, c * z - s * x], axis=-1)
+
+
 def _process(
     plans: Sequence[Plan], sens: np.ndarray, heights: np.ndarray, config: SynthConfig
 ) -> list[Trial]:
@@ -284,9 +302,11 @@ def _process(
     direction = np.array([p.loop.direction for p in plans])[:, None, :]  # (b, 1, 2)
     rel = contact_data[..., 7:9] - pad_pos[..., :2]
     depth = sens[..., cols["contact_depth"]]
+    # The mount's force sensor turns with the rocking pad; the gauges' phalanx does not.
+    pitch = sens[..., cols["pad_pitch"].start]
     mech = sensors.Mechanics(
-        mount_force=sens[..., cols["mount_force"]],
-        mount_torque=sens[..., cols["mount_torque"]],
+        mount_force=_unrock(sens[..., cols["mount_force"]], pitch),
+        mount_torque=_unrock(sens[..., cols["mount_torque"]], pitch),
         contact_ahead_m=np.where(found, (rel * direction).sum(axis=-1), 0.0),
         indentation_m=np.where(depth[..., 0] > 0, np.maximum(-depth[..., 1], 0.0), 0.0),
     )

@@ -1,4 +1,4 @@
-"""Physics checks of the simulator (issue 3): each asserts a measurable physical property."""
+"""Physics checks of the simulator: each asserts a measurable physical property."""
 
 from __future__ import annotations
 
@@ -11,10 +11,11 @@ from scipy import signal
 
 import synth
 from shapes import SHAPE_NAMES
+from synth import contact, sensors, skin_fit
 from synth import scene as scene_mod
-from synth import sensors
+from synth import simulator as sim
 from synth.config import Motion, SynthConfig
-from synth.materials import Material, Periodic, Texture
+from synth.materials import FrictionLaw, Material, Periodic, Texture
 from synth.simulator import SimulationError, simulate_batch
 from synth.trial import SAMPLE_RATE_HZ, TrialSpec
 
@@ -28,27 +29,29 @@ def _config(base: SynthConfig, **motion) -> SynthConfig:
     return dataclasses.replace(base, motion=dataclasses.replace(base.motion, **motion))
 
 
+def _with_material(config: SynthConfig, material: str, **changes) -> SynthConfig:
+    return config.with_material(dataclasses.replace(config.materials[material], **changes))
+
+
+def _run(plans: list, config: SynthConfig) -> tuple[np.ndarray, list]:
+    """Full-length sensordata ``(b, steps, n)`` and the windows' trials of ``plans``."""
+    datas = [mujoco.MjData(plans[0].model)]
+    sens, heights = sim._roll(plans, datas, config)
+    return sens, sim._process(plans, sens, heights, config)
+
+
 @pytest.mark.parametrize("shape", SHAPE_NAMES)
-def test_every_scene_compiles_and_slides_one_second_without_warnings(shape):
-    """1. All 36 scenes: compile, slide 1 s (Python mj_step loop), no MuJoCo warning."""
+def test_every_scene_compiles_and_steps_without_warnings(shape):
+    """All 12 scenes compile; the finger rests under load for 0.1 s with no warning."""
     config = SynthConfig()
-    sc = scene_mod.scene(shape, config)
-    for material in synth.MATERIAL_NAMES:
-        mat = config.materials[material]
-        model = sc.trial_model(mat, mat.friction, mat.contact_timeconst_s)
-        data = mujoco.MjData(model)
-        x0 = -0.015
-        data.qpos[sc.qpos_index["robot_x"]] = x0
-        data.qpos[sc.qpos_index["robot_z"]] = -1.0 / config.finger.pdms_normal_stiffness_n_m
-        data.qpos[sc.qpos_index["pdms_z"]] = 1.0 / config.finger.pdms_normal_stiffness_n_m
-        steps = round(1.0 / model.opt.timestep)
-        for i in range(steps):
-            data.ctrl[:] = (x0 + 0.010 * i * model.opt.timestep, 0.0, -1.0)
-            mujoco.mj_step(model, data)
-        assert [w.number for w in data.warning] == [0] * len(data.warning), (shape, material)
-        assert np.all(np.isfinite(data.qpos))
-        moved = data.qpos[sc.qpos_index["robot_x"]] - x0
-        assert 0.008 < moved < 0.0105, (shape, material, moved)
+    plan = sim.plan(TrialSpec(shape, "wood", seed=1), config)
+    data = mujoco.MjData(plan.model)
+    data.qpos[:] = plan.initial_qpos
+    data.ctrl[:] = (plan.loop.x_ref[0], plan.loop.y_ref[0], plan.loop.z_ref0)
+    for _ in range(200):
+        mujoco.mj_step(plan.model, data)
+    assert [w.number for w in data.warning] == [0] * len(data.warning), shape
+    assert np.all(np.isfinite(data.qpos))
 
 
 def test_all_36_classes_simulate_cleanly():
@@ -62,6 +65,55 @@ def test_all_36_classes_simulate_cleanly():
         assert abs(np.median(trial.truth["normal_force_n"]) - 1.0) < 0.1
 
 
+@pytest.mark.parametrize("speed", [6.0, 10.0, 14.0])
+def test_slides_start_clear_of_the_outline_without_a_force_spike(speed):
+    """Every shape at every preset speed: the skin starts outside the raised outline (no
+    penetration of any of its pieces) and the normal force stays below 1.3 times the
+    command until the skin first reaches the outline."""
+    config = SynthConfig()
+    plans = [sim.plan(TrialSpec(s, "resin", speed_mm_s=speed, seed=3), config) for s in SHAPE_NAMES]
+    for plan in plans:
+        model = plan.model
+        data = mujoco.MjData(model)
+        data.qpos[:] = plan.initial_qpos
+        mujoco.mj_forward(model, data)
+        sc = scene_mod.scene(plan.spec.shape, config)
+        pieces = sc.specimen_geoms[1:]
+        gap = min(
+            mujoco.mj_geomDistance(model, data, sc.skin_geom, int(g), 0.01, None) for g in pieces
+        )
+        assert gap >= 0.0, (plan.spec.shape, gap)
+    cols = scene_mod.sensor_columns()
+    for plan in plans:
+        sens, _ = _run([plan], config)
+        normal = -sens[0, : plan.touch_step, cols["contact"].start + 3]
+        assert normal.max() < 1.3 * plan.loop.force_n, (plan.spec.shape, normal.max())
+
+
+def test_the_window_is_centred_on_the_contact_phase_at_every_speed():
+    """Slower runs see less of the shape around its middle: the window's middle is the
+    middle of the skin's contact with the outline, whatever the speed."""
+    config = NOMINAL
+    for speed in (6.0, 10.0, 14.0):
+        trial = synth.simulate("square", "resin", speed_mm_s=speed, config=config)
+        x = trial.truth["commanded_x_m"]  # the square's contact phase is centred on x = 0
+        assert abs(x[1000]) < 0.1e-3, (speed, x[1000])
+        assert x[-1] - x[0] == pytest.approx(2.0 * speed * 1e-3, rel=0.01)
+
+
+def test_skin_indentation_follows_hertz():
+    """One contact model for every material: the skin's penetration under load is the
+    Hertz indentation of a ``skin_modulus_pa`` sphere of the pad's radius (within 10 %)."""
+    finger = NOMINAL.finger
+    forces = np.array([0.5, 1.0, 1.5])
+    got = skin_fit.measure_indentation(NOMINAL, forces)
+    want = contact.hertz_indentation_m(
+        forces, finger.pad_radius_m, finger.skin_modulus_pa, finger.skin_poisson
+    )
+    np.testing.assert_allclose(got, want, rtol=0.10)
+    assert 0.3e-3 < want[1] < 2e-3  # a fingertip-like fraction of a millimetre to 2 mm
+
+
 def _flat(material="wood", force_n=1.0, speed_mm_s=10.0, seed=0, config=FLAT):
     return synth.simulate(
         "square", material, force_n=force_n, speed_mm_s=speed_mm_s, seed=seed, config=config
@@ -69,26 +121,120 @@ def _flat(material="wood", force_n=1.0, speed_mm_s=10.0, seed=0, config=FLAT):
 
 
 def test_strain_gauge_level_scales_with_normal_force():
-    """2. Flat-plate sliding: 2 N gives twice the strain-gauge level of 1 N (within 10%)."""
+    """Flat-plate sliding: 2 N gives about twice the strain-gauge level of 1 N; the
+    friction coefficient falls with load (exponent -0.21), so the friction-driven bending
+    grows by 2^0.79 rather than 2."""
     zero = sensors.bridge_zero_v(FLAT.strain_gauge)
     one, two = (_flat(force_n=f).signals[SG].mean(axis=1) - zero for f in (1.0, 2.0))
     assert np.all(np.abs(one) > 0.02), one  # well above the noise
-    np.testing.assert_allclose(two / one, 2.0, rtol=0.10)
+    ratio = two / one
+    assert np.all((ratio > 1.5) & (ratio < 2.1)), ratio
 
 
-def test_friction_ratio_equals_each_materials_coefficient():
-    """3. Steady flat sliding: tangential/normal = friction coefficient, materials ordered."""
+def test_friction_ratio_follows_each_materials_law():
+    """Steady flat sliding: tangential / normal = the material's kinetic coefficient at the
+    measured load; materials ordered by it."""
     ratios = {}
     for material in synth.MATERIAL_NAMES:
         truth = _flat(material).truth
-        steady = slice(200, None)  # after the start of the window
-        ratios[material] = (
-            truth["tangential_force_n"][steady].mean() / truth["normal_force_n"][steady].mean()
-        )
-        mu = FLAT.materials[material].friction
-        assert ratios[material] == pytest.approx(mu, rel=0.10), (material, ratios[material], mu)
-    by_mu = sorted(synth.MATERIAL_NAMES, key=lambda m: FLAT.materials[m].friction)
+        normal = truth["normal_force_n"][STEADY]
+        ratios[material] = truth["tangential_force_n"][STEADY].mean() / normal.mean()
+        law = FLAT.materials[material].friction
+        want = law.kinetic * normal.mean() ** law.load_exponent
+        assert ratios[material] == pytest.approx(want, rel=0.05), (material, ratios[material])
+    by_mu = sorted(synth.MATERIAL_NAMES, key=lambda m: FLAT.materials[m].friction.kinetic)
     assert sorted(ratios, key=ratios.get) == by_mu
+
+
+def test_static_friction_gives_stick_slip_that_emerges_from_the_simulation():
+    """A velocity-weakening law (static well above kinetic) on the compliant finger sticks
+    and slips: the skin's slip speed alternates between near zero and several times the
+    robot's speed, while the robot moves steadily."""
+    law = FrictionLaw(kinetic=0.4, static=1.6, stribeck_velocity_m_s=2e-3, load_exponent=0.0)
+    config = _with_material(FLAT, "aluminum", friction=law)
+    slip = _flat("aluminum", config=config).truth["slip_speed_m_s"]
+    assert (slip < 2e-3).mean() > 0.2  # stuck a good part of the time
+    assert slip.max() > 50e-3  # and snapping free well above the 10 mm/s drive
+    steady = _flat("aluminum").truth["slip_speed_m_s"][STEADY]
+    assert (steady < 2e-3).mean() < 0.02  # the kinetic-dominated law slides throughout
+
+
+def _fine_texture_config(base: SynthConfig, law: FrictionLaw | None = None) -> SynthConfig:
+    """A finger with one narrow ridge, so 0.1 mm marks (0.15 um deep) pass unfiltered, on a
+    surface that slides steadily unless ``law`` says otherwise."""
+    finger = dataclasses.replace(base.finger, ridges_in_contact=1, ridge_width_m=10e-6)
+    marks = Texture(0.0, 1e-4, (Periodic(wavelength_m=0.1e-3, amplitude_m=0.15e-6),))
+    steady = FrictionLaw(kinetic=0.6, static=0.6, load_exponent=0.0)
+    return _with_material(
+        dataclasses.replace(base, finger=finger), "aluminum", texture=marks, friction=law or steady
+    )
+
+
+def _band_rms(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    sos = signal.butter(4, (lo, hi), btype="band", fs=SAMPLE_RATE_HZ, output="sos")
+    return np.abs(signal.sosfiltfilt(sos, x.astype(float)))
+
+
+def test_a_stuck_pad_feels_no_texture_while_the_robot_moves():
+    """Texture is felt where the skin actually rubs. In the stick phases of stick-slip the
+    robot keeps moving at 10 mm/s (the planned path would cross 0.1 mm marks at 100 Hz)
+    but the skin stands still (it creeps by ~1 mm/s): the felt height changes an order of
+    magnitude slower than in steady sliding, and the PVDF texture band (80-120 Hz) away
+    from the snaps (40 ms either side: the pad rings after each) is far quieter."""
+    sliding = _flat("aluminum", config=_fine_texture_config(FLAT))
+    law = FrictionLaw(kinetic=0.4, static=1.6, stribeck_velocity_m_s=2e-3, load_exponent=0.0)
+    sticky = _flat("aluminum", config=_fine_texture_config(FLAT, law))
+    slip = sticky.truth["slip_speed_m_s"]
+    snapping = np.convolve(slip > 3e-3, np.ones(81), mode="same") > 0
+    stuck = (slip < 2e-3) & ~snapping
+    assert stuck.sum() > 50
+    felt = np.abs(np.diff(sticky.truth["specimen_z_m"]))[stuck[1:]].mean()
+    felt_sliding = np.abs(np.diff(sliding.truth["specimen_z_m"]))[STEADY].mean()
+    assert felt < 0.25 * felt_sliding, (felt, felt_sliding)
+    ref = _band_rms(sliding.signals[0], 80, 120)[STEADY].mean()
+    quiet = _band_rms(sticky.signals[0], 80, 120)[stuck].mean()
+    assert quiet < 0.5 * ref, (quiet, ref)
+
+
+def test_a_pad_that_stops_stops_exciting_texture():
+    """The robot stops half-way through the window: the texture band dies out."""
+    config = _fine_texture_config(FLAT)
+    plan = sim.plan(TrialSpec("square", "aluminum", seed=2), config)
+    stop = plan.window_start + 1000 * sim.steps_per_sample(config)
+    x = plan.loop.x_ref.copy()
+    x[stop:] = x[stop]
+    plan = dataclasses.replace(plan, loop=dataclasses.replace(plan.loop, x_ref=x))
+    (trial,) = _run([plan], config)[1]
+    band = _band_rms(trial.signals[0], 80, 120)
+    before, after = band[300:900].mean(), band[1300:1900].mean()
+    assert after < 0.1 * before, (after, before)
+
+
+def test_texture_frequency_follows_the_actual_speed():
+    """Decelerating from 16 to 6 mm/s over the window, the PVDF peak tracks the skin's
+    measured speed over the 0.1 mm marks (f = v / wavelength) in each 0.2 s block."""
+    config = _fine_texture_config(FLAT)
+    plan = sim.plan(TrialSpec("square", "aluminum", speed_mm_s=16.0, seed=2), config)
+    dt = config.motion.timestep_s
+    w0 = plan.window_start
+    n = plan.loop.x_ref.size
+    t = (np.arange(n) - w0) * dt
+    window = np.clip(t, 0.0, 2.0)
+    v = np.where(t < 0, 16e-3, 16e-3 - 5e-3 * window)  # 16 -> 6 mm/s
+    x = plan.loop.x_ref[w0] + np.concatenate([[0.0], np.cumsum(v[:-1] * dt)])
+    x -= x[w0] - plan.loop.x_ref[w0]
+    pre = slice(0, w0)
+    x[pre] = plan.loop.x_ref[pre]
+    plan = dataclasses.replace(plan, loop=dataclasses.replace(plan.loop, x_ref=x))
+    (trial,) = _run([plan], config)[1]
+    pad_x = trial.truth["finger_x_m"]
+    for start in range(100, 1900, 200):
+        block = slice(start, start + 200)
+        speed = (pad_x[block][-1] - pad_x[block][0]) / 0.199
+        f, p = signal.periodogram(trial.signals[0, block].astype(float), fs=SAMPLE_RATE_HZ)
+        band = f > 30
+        peak = f[band][np.argmax(p[band])]
+        assert peak == pytest.approx(speed / 0.1e-3, rel=0.10), (start, peak, speed)
 
 
 def _onset(t: np.ndarray, deviation: np.ndarray, threshold: float, after: float = -1.0) -> float:
@@ -102,64 +248,50 @@ def _time_at_x(truth: dict, x: float) -> float:
 
 
 def test_edge_transients_occur_at_the_geometric_entry_and_exit():
-    """4. Square at y = 0, 16 mm/s so that the 2 s window holds both edges.
+    """Square on its centre line at 16 mm/s, so the 2 s window holds both edges.
 
-    The finger is force-controlled, so an edge shows in the contact force along the
-    edge's normal, not in the vertical load the controller holds: the transients are
-    detected in the magnitude of the skin-specimen contact force. Entry: the skin (indented
-    by ``pen``) first touches the raised edge when the pad centre is
-    ``a = sqrt(r^2 - (r - h - pen)^2)`` ahead of it. Exit: the contact moves onto the exit
-    corner as the pad centre passes it (force drops), and the skin lands on the plate a
-    further on (the normal force spikes). Predicted times are those positions divided by
-    the finger's speed, i.e. read off its measured x.
+    Entry: the skin (indented by ``pen``) first touches the raised edge when the pad centre
+    is ``a = sqrt(r^2 - (r - h - pen)^2)`` ahead of it, and the contact force turns. Exit:
+    the contact moves onto the far corner as the pad centre passes it (the force tilts),
+    and the skin, rolling down the corner under the force loop, is back on the plate when
+    the pad centre is ``a`` past the corner.
     """
-    smooth = _with_texture(NOMINAL, "resin", Texture(0.0, 1e-4))  # geometry alone
+    smooth = _with_material(_config(NOMINAL, path_y_m=0.0), "resin", texture=Texture(0.0, 1e-4))
     trial = synth.simulate("square", "resin", speed_mm_s=16.0, config=smooth)
     truth = trial.truth
     r, h = smooth.finger.pad_radius_m, 0.002
     half = 0.007  # the square's half side (14 mm)
-    t = truth["time_s"]
+    t, x, z = truth["time_s"], truth["finger_x_m"], truth["finger_z_m"]
     total = np.hypot(truth["normal_force_n"], truth["tangential_force_n"])
-    settled = t > t[0] + 0.1  # past the slide's start-up
-    plate = settled & (truth["finger_x_m"] < -0.0126)
-    pen = -np.median(truth["finger_z_m"][plate])
-    assert 0 < pen < 0.5e-3  # the soft skin is indented a fraction of a millimetre
+    plate = x < -half - 0.0065
+    pen = np.median(truth["indentation_m"][plate])
+    assert 0.3e-3 < pen < 1.5e-3  # the soft skin is indented by most of a millimetre
     a = np.sqrt(r**2 - (r - h - pen) ** 2)
     level = np.median(total[plate])
-    entry = _onset(t, np.abs(total - level), 0.05 * level, after=t[plate][-1])
+    entry = _onset(t, np.abs(total - level), 0.05 * level)
     assert entry == pytest.approx(_time_at_x(truth, -half - a), abs=0.020)
-    on_top = (truth["finger_x_m"] > -0.004) & (truth["finger_x_m"] < 0.004)
+    on_top = (x > -0.004) & (x < 0.004)
     top_level = np.median(total[on_top])
     crest = _time_at_x(truth, half)
-    # The force tilts smoothly as the pad rolls onto the corner: 2% (noise is ~0.2%).
     exit_t = _onset(t, np.abs(total - top_level), 0.02 * top_level, after=crest - 0.1)
     assert exit_t == pytest.approx(crest, abs=0.020)
-    # Landing: the indented pad (radius r - pen on the corner too) touches down when its
-    # centre is a' past the corner; the normal force spikes as the plate takes the load.
-    a_land = np.sqrt((r - pen) ** 2 - (r - pen - h) ** 2)
-    after = t > crest + 0.05
-    landing = t[after][np.argmax(truth["normal_force_n"][after])]
-    assert landing == pytest.approx(_time_at_x(truth, half + a_land), abs=0.020)
+    plate_z = np.median(z[plate])
+    landed = _onset(t, -np.abs(z - plate_z), -0.05e-3, after=crest)
+    assert landed == pytest.approx(_time_at_x(truth, half + a), abs=0.030)
 
 
 def test_finger_drops_into_the_moon_notch():
-    """5. Crossing the moon's notch the skin reaches the plate and the normal force
+    """Crossing the moon's notch the skin reaches the plate and the normal force
     returns to its plate level (with a single convex hull it would ride over at 2 mm)."""
-    config = _config(NOMINAL, path_y_m=0.003, window_center_x_m=0.0)
+    config = _config(NOMINAL, path_y_m=0.003)
     truth = synth.simulate("moon", "wood", config=config).truth
     x = truth["finger_x_m"]
     notch = np.abs(x) < 0.0005  # the notch's middle (it spans |x| < 6 mm at y = 0..3 mm)
     assert notch.sum() > 50
-    on_top = truth["finger_z_m"] > 0.0015
+    on_top = truth["finger_z_m"] > 0.001  # skin bottom on the 2 mm top, indented ~0.8 mm
     assert on_top.sum() > 100, "the finger must first cross a horn of the moon"
     assert truth["finger_z_m"][notch].max() < 0.25e-3
-    plate_level = 1.0  # the applied force: the plate carries it all when nothing else touches
-    assert np.mean(truth["normal_force_n"][notch]) == pytest.approx(plate_level, rel=0.03)
-    assert np.std(truth["normal_force_n"][notch]) < 0.03
-
-
-def _with_texture(config: SynthConfig, material: str, texture: Texture) -> SynthConfig:
-    return config.with_material(dataclasses.replace(config.materials[material], texture=texture))
+    assert np.mean(truth["normal_force_n"][notch]) == pytest.approx(1.0, rel=0.05)
 
 
 def _pvdf_rms(trial) -> float:
@@ -167,10 +299,10 @@ def _pvdf_rms(trial) -> float:
 
 
 def test_pvdf_is_ac_coupled_and_rises_with_speed_and_roughness():
-    """6a. PVDF channels are zero-mean; their RMS rises with speed and roughness.
+    """PVDF channels are zero-mean; their RMS rises with speed and roughness.
 
-    Measured on steady sliding (from 0.3 s into the window, past the slide's start-up);
-    the strain gauges, DC-coupled, are far from zero-mean on the same samples.
+    Measured on steady sliding; the strain gauges, DC-coupled, are far from zero-mean on
+    the same samples.
     """
 
     def batch(speed_mm_s, config=FLAT):
@@ -183,46 +315,47 @@ def test_pvdf_is_ac_coupled_and_rises_with_speed_and_roughness():
     slow, fast = batch(5.0), batch(20.0)
     for trial in (*slow, *fast):
         pv = trial.signals[PVDF, STEADY].astype(float)
-        assert np.all(np.abs(pv.mean(axis=1)) < 0.05 * pv.std(axis=1)), pv.mean(axis=1)
+        assert np.all(np.abs(pv.mean(axis=1)) < 0.1 * pv.std(axis=1)), pv.mean(axis=1)
         sg = trial.signals[SG, STEADY].astype(float)
         assert np.all(np.abs(sg.mean(axis=1)) > 5 * sg.std(axis=1))
     assert rms(fast) > 1.25 * rms(slow)
     wood = FLAT.materials["wood"].texture
-    rough = Texture(
-        roughness_rms_m=3 * wood.roughness_rms_m,
-        correlation_length_m=wood.correlation_length_m,
-        periodic=wood.periodic,
+    rough = dataclasses.replace(wood, roughness_rms_m=3 * wood.roughness_rms_m)
+    assert _pvdf_rms(_flat(config=_with_material(FLAT, "wood", texture=rough))) > 1.5 * _pvdf_rms(
+        _flat()
     )
-    assert _pvdf_rms(_flat(config=_with_texture(FLAT, "wood", rough))) > 1.5 * _pvdf_rms(_flat())
 
 
 def test_pvdf_spectrum_peaks_at_speed_over_wavelength():
-    """6b. A purely periodic texture of wavelength L gives a PVDF peak at v / L.
+    """A purely periodic texture of wavelength L gives a PVDF peak at v / L.
 
     L = 0.45 mm, the fingerprint's ridge spacing, which the ridges pass best (Scheibert et
-    al. 2009); 8 and 16 mm/s put v / L at 18 and 36 Hz, where a force-controlled finger
-    with soft skin transmits vibration.
+    al. 2009); 8 and 16 mm/s put v / L at 18 and 36 Hz.
     """
     wavelength = 0.45e-3
-    periodic = Texture(
-        roughness_rms_m=0.0,
-        correlation_length_m=1e-4,
-        periodic=(Periodic(wavelength_m=wavelength, amplitude_m=10e-6),),
-    )
-    config = _with_texture(FLAT, "resin", periodic)
+    periodic = Texture(0.0, 1e-4, (Periodic(wavelength_m=wavelength, amplitude_m=10e-6),))
+    config = _with_material(FLAT, "resin", texture=periodic)
     for speed in (8.0, 16.0):
         trial = _flat("resin", speed_mm_s=speed, config=config)
         f, p = signal.welch(trial.signals[0].astype(float), fs=SAMPLE_RATE_HZ, nperseg=1000)
-        band = f > 3.0  # above the drift and the slide's slow load changes
+        band = f > 3.0  # above the slow load changes
         peak = f[band][np.argmax(p[band])]
         assert peak == pytest.approx(speed * 1e-3 / wavelength, rel=0.10), (speed, peak)
 
 
+def test_pvdf_film_capacitance_comes_from_its_geometry():
+    """28 um PVDF has ~380 pF per cm^2 (eps_r 12-13)."""
+    pv = NOMINAL.pvdf
+    per_cm2 = pv.capacitance_f / (pv.area_m2 * 1e4)
+    assert per_cm2 == pytest.approx(380e-12, rel=0.05)
+
+
 def test_same_seed_is_bit_identical_whatever_the_batch():
-    """7. Determinism: same seed, same bits (alone or in a batch, any thread count)."""
+    """Determinism: same seed, same bits (alone or in a batch, any thread count)."""
     spec = TrialSpec("pentagram", "aluminum", force_n=1.2, speed_mm_s=9.0, seed=11)
     alone = synth.simulate("pentagram", "aluminum", force_n=1.2, speed_mm_s=9.0, seed=11)
     others = [TrialSpec(s, "wood", seed=3) for s in ("moon", "pentagram", "circle")]
+    others.append(TrialSpec("pentagram", "aluminum", force_n=1.2, speed_mm_s=9.0, seed=4))
     batch = simulate_batch([*others, spec], threads=2)
     np.testing.assert_array_equal(alone.signals, batch[-1].signals)
     for name, values in alone.truth.items():
@@ -260,15 +393,21 @@ def test_config_round_trips_and_rejects_unknown_keys():
         SynthConfig.from_dict(data)
     with pytest.raises(ValueError, match="timestep_s"):
         Motion(timestep_s=0.0003)
+    with pytest.raises(ValueError, match="surface_update_s"):
+        Motion(surface_update_s=0.0005)
+    with pytest.raises(ValueError, match="kinetic"):
+        FrictionLaw(kinetic=-0.1, static=0.5)
+    with pytest.raises(ValueError, match="static must be >= kinetic"):
+        FrictionLaw(kinetic=0.6, static=0.5)
     with pytest.raises(ValueError, match="friction"):
-        Material("wood", -0.1, 0.003, 1.0, 700.0, Texture(1e-6, 1e-4))
+        Material("wood", 0.5, Texture(1e-6, 1e-4))
 
 
 def test_a_finger_that_loses_contact_raises():
     """Lift-off is an error naming the trial, never silently returned data."""
-    # 0.3 mm corrugations 1 mm apart at 20 mm/s shake the specimen at 4.7 m/s^2; a 0.05 N
-    # push cannot hold the 53 g finger against that: it takes off.
+    # 0.3 mm corrugations 1 mm apart at 20 mm/s shake the specimen far harder than a
+    # 0.05 N push can hold the skin against: it takes off.
     grain = Texture(0.0, 1e-4, (Periodic(wavelength_m=1e-3, amplitude_m=3e-4),))
-    config = _with_texture(NOMINAL, "wood", grain)
+    config = _with_material(FLAT, "wood", texture=grain)
     with pytest.raises(SimulationError, match=r"lost contact.*shape='square'"):
         synth.simulate("square", "wood", force_n=0.05, speed_mm_s=20.0, config=config)
