@@ -145,7 +145,9 @@ def _diagnose(args: argparse.Namespace) -> int:
         args.data,
         out=args.out,
         allow_incomplete=args.allow_incomplete,
-        progress=lambda msg: print(f"[diagnose] {msg}", file=sys.stderr, flush=True),
+        progress=lambda msg: print(
+            f"[diagnose {time.perf_counter() - start:5.1f} s] {msg}", file=sys.stderr, flush=True
+        ),
     )
     print(summary_table(diag))
     seconds = time.perf_counter() - start

@@ -598,51 +598,65 @@ def _targets(diag: Diagnosis) -> tuple[str, ...]:
     return tuple(t for t in TARGETS if t != "condition" or len(diag.conditions) > 1)
 
 
+def _count(k: int, noun: str, plural: str | None = None) -> str:
+    return f"{k} {noun if k == 1 else plural or noun + 's'}"
+
+
 def describe(diag: Diagnosis) -> str:
     """One line: trials, grid, trials per class, completeness."""
     lo, hi = diag.trials_per_class
     per_class = f"{lo}" if lo == hi else f"{lo}-{hi}"
-    n_c = len(diag.conditions)
-    conds = diag.conditions[0] if n_c == 1 else f"{n_c} conditions"
+    conds = _count(len(diag.conditions), "condition")
+    if len(diag.conditions) == 1:
+        conds += f" ({diag.conditions[0]})"
     text = (
-        f"{diag.n_trials} trials: {len(diag.shapes)} shape(s) x {len(diag.materials)} "
-        f"material(s) x {conds}, {per_class} trials per class"
+        f"{diag.n_trials} trials, {_count(len(diag.shapes), 'shape')} x "
+        f"{_count(len(diag.materials), 'material')} x {conds}, {per_class} trials per class"
     )
-    return text + ("" if diag.complete else " (incomplete store: finished trials only)")
+    return text + ("" if diag.complete else " (incomplete store: its finished trials only)")
 
 
-def _worst(values: dict[str, float | None] | None, k: int = 3) -> str:
-    if not values:
-        return "n/a"
-    ranked = sorted(((v, name) for name, v in values.items() if v is not None))
+def _worst(values: dict[str, float | None], k: int = 3) -> str:
+    ranked = sorted((v, name) for name, v in values.items() if v is not None)
     return ", ".join(f"{name} {v:.2f}" for v, name in ranked[:k]) or "n/a"
 
 
+def _by_group(values: dict[str, float | None]) -> str:
+    return " / ".join(_fmt(values[g], 2) for g in GROUP_NAMES)
+
+
 def summary_table(diag: Diagnosis) -> str:
-    """The compact text the CLI prints: the accuracy table, worst shapes and materials,
-    the most confused pairs and the notes."""
+    """The compact text the CLI prints: the accuracy table, the worst shapes, the
+    materials, the per-condition class accuracy, the most confused pairs and the notes."""
     targets = _targets(diag)
-    width = max(len(_group_label(diag, g)) for g in GROUP_NAMES)
+    width = max(len(_group_label(diag, g)) for g in GROUP_NAMES) + 2
     lines = [
         f"{diag.source}: {describe(diag)}",
-        "leave-one-out 1-NN accuracy (z-scored feature pool)",
-        f"{'channel group (features)':<{width}}  " + "  ".join(f"{t:>9}" for t in targets),
+        f"{'leave-one-out 1-NN accuracy':<{width}}" + "".join(f"{t:>10}" for t in targets),
     ]
     for g in GROUP_NAMES:
         cells = [_fmt(None if diag.accuracy[t] is None else diag.accuracy[t][g]) for t in targets]
-        lines.append(f"{_group_label(diag, g):<{width}}  " + "  ".join(f"{c:>9}" for c in cells))
+        lines.append(f"{_group_label(diag, g):<{width}}" + "".join(f"{c:>10}" for c in cells))
     chance = [_fmt(diag.chance[t]) for t in targets]
-    lines.append(f"{'chance':<{width}}  " + "  ".join(f"{c:>9}" for c in chance))
-    for kind, table in (("shapes", diag.per_shape), ("materials", diag.per_material)):
-        if table is not None:
-            lines.append(
-                f"worst {kind}: all {_worst(table['all'])} | SG {_worst(table['sg'])} "
-                f"| PVDF {_worst(table['pvdf'])}"
+    lines.append(f"{'chance':<{width}}" + "".join(f"{c:>10}" for c in chance))
+    if diag.per_shape is not None:
+        lines.append(f"worst shapes, all features: {_worst(diag.per_shape['all'])}")
+        lines.append(f"worst shapes, SG only:      {_worst(diag.per_shape['sg'])}")
+    if diag.per_material is not None:
+        per = {g: diag.per_material[g] for g in GROUP_NAMES}
+        lines.append(
+            "materials (all / SG / PVDF): "
+            + ", ".join(
+                f"{m} {_by_group({g: per[g][m] for g in GROUP_NAMES})}" for m in diag.materials
             )
+        )
+    if diag.per_condition is not None:
+        lines.append("class accuracy within each condition (all / SG / PVDF):")
+        lines += [f"  {c}: {_by_group(v)}" for c, v in diag.per_condition.items()]
     pairs = diag.confused_pairs["all"][:3]
     if pairs:
         lines.append(
-            "most confused (all features): "
+            "most confused, all features: "
             + ", ".join(f"{p.a} ~ {p.b} {p.share:.2f}" for p in pairs)
         )
     lines += [f"note: {t}: {text}" for t, text in diag.notes.items() if t in targets]
@@ -866,6 +880,7 @@ def plot_pvdf_spectra(diag: Diagnosis, path: str | Path) -> Path:
     """Mean PVDF power spectral density per material: one row per condition, one column
     per PVDF channel (log scale)."""
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import NullLocator
 
     from .figures import MATERIAL_COLOURS, _save
 
@@ -886,8 +901,10 @@ def plot_pvdf_spectra(diag: Diagnosis, path: str | Path) -> Path:
             ax = axes[ci, k]
             for mi, mat in enumerate(sp.materials):
                 p = sp.psd_v2_per_hz[ci, mi, k]
-                if np.all(np.isfinite(p)):
+                if np.all(np.isfinite(p)) and np.any(p[1:] > 0):
                     ax.semilogy(f[1:], p[1:], color=MATERIAL_COLOURS.get(mat), lw=1, label=mat)
+            # Minor log ticks on many panels cost more to draw than everything else.
+            ax.yaxis.set_minor_locator(NullLocator())
             ax.set_title(f"{ch}, {cond}", fontsize=9)
             ax.grid(True, which="major", lw=0.3)
             if k == 0:
@@ -924,14 +941,13 @@ def plot_sg_traces(diag: Diagnosis, path: str | Path) -> Path:
     cond_colours = _condition_colours(tr.conditions)
     for si, shape in enumerate(tr.shapes):
         ax = axes[si // cols, si % cols]
-        for ci, cond in enumerate(tr.conditions):
+        for ci in range(len(tr.conditions)):
             for k, ch in enumerate(tr.channels):
                 m = tr.mean_v[ci, si, k]
                 if not np.all(np.isfinite(m)):
                     continue
                 colour = colours[k] if single else cond_colours[ci]
-                label = ch if single else (f"{cond} ({ch})")
-                ax.plot(tr.time_s, m, color=colour, ls=styles[k % 2], lw=0.9, label=label)
+                ax.plot(tr.time_s, m, color=colour, ls=styles[k % 2], lw=0.9, label=ch)
                 if single:
                     s = tr.std_v[ci, si, k]
                     ax.fill_between(tr.time_s, m - s, m + s, color=colour, alpha=0.2, lw=0)
@@ -942,8 +958,16 @@ def plot_sg_traces(diag: Diagnosis, path: str | Path) -> Path:
         ax.set_ylabel("SG (V)")
     for ax in axes[-1]:
         ax.set_xlabel("time (s)")
-    handles, labels = axes[0, 0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="outside lower center", ncol=min(len(labels), 4), fontsize=7)
+    if single:
+        handles, labels = axes[0, 0].get_legend_handles_labels()
+    else:
+        from matplotlib.lines import Line2D
+
+        # One entry per condition colour, and one per line style (channel).
+        handles = [Line2D([], [], color=c, lw=1.5) for c in cond_colours]
+        handles += [Line2D([], [], color="k", ls=styles[k], lw=0.9) for k in range(2)]
+        labels = [*tr.conditions, *tr.channels]
+    fig.legend(handles, labels, loc="outside lower center", ncol=min(len(labels), 5), fontsize=7)
     return _save(fig, path)
 
 
