@@ -27,6 +27,7 @@ and PNG figures; :func:`summary_table` is the compact text the CLI prints.
 
 from __future__ import annotations
 
+import copy
 import json
 import os
 from collections.abc import Callable, Sequence
@@ -190,11 +191,11 @@ class PvdfSpectra:
                     if not np.all(np.isfinite(p)):
                         out[cond][mat][ch] = {"rms_v": None, "centroid_hz": None, "peak_hz": None}
                         continue
-                    power = float(p.sum() * df)
+                    total = float(p.sum())
                     out[cond][mat][ch] = {
-                        "rms_v": float(np.sqrt(power)),
-                        "centroid_hz": float((f[1:] * p).sum() / p.sum()) if p.sum() > 0 else None,
-                        "peak_hz": float(f[1 + int(np.argmax(p))]),
+                        "rms_v": float(np.sqrt(total * df)),
+                        "centroid_hz": float((f[1:] * p).sum() / total) if total > 0 else None,
+                        "peak_hz": float(f[1 + int(np.argmax(p))]) if total > 0 else None,
                     }
         return out
 
@@ -239,7 +240,7 @@ class Diagnosis:
         shape is not applicable); per_material likewise; per_class ``{group: {class:
         class accuracy of that class's trials}}``.
     per_condition: ``{condition: {group: class accuracy with neighbours restricted to the
-        same condition}}``; ``None`` with a single condition.
+        same condition}}``; ``None`` with a single condition or a single class.
     confused_pairs: ``{group: [ConfusedPair, ...]}``, most confused first.
     confusion: ``{group: (k, k) int array}``: row = a trial's class, column = its nearest
         neighbour's class, in ``classes`` order.
@@ -275,37 +276,40 @@ class Diagnosis:
     sg_traces: SgTraces = field(repr=False)
 
     def to_dict(self) -> dict[str, Any]:
-        """Every number as JSON-friendly types (the curves only by reference and summary)."""
-        return {
-            "format_version": FORMAT_VERSION,
-            "source": self.source,
-            "n_trials": self.n_trials,
-            "complete": self.complete,
-            "shapes": list(self.shapes),
-            "materials": list(self.materials),
-            "conditions": list(self.conditions),
-            "classes": list(self.classes),
-            "trials_per_class": list(self.trials_per_class),
-            "n_features": dict(self.n_features),
-            "accuracy": self.accuracy,
-            "chance": self.chance,
-            "scored": self.scored,
-            "notes": self.notes,
-            "per_shape": self.per_shape,
-            "per_material": self.per_material,
-            "per_class": self.per_class,
-            "per_condition": self.per_condition,
-            "confused_pairs": {
-                g: [vars(p) for p in pairs] for g, pairs in self.confused_pairs.items()
-            },
-            "confusion": {g: m.tolist() for g, m in self.confusion.items()},
-            "pvdf_spectra": {
-                "welch_segment_samples": WELCH_SEGMENT_SAMPLES,
-                "summary": self.spectra.summary(),
-                "curves": f"{CURVES_NAME}: psd_freq_hz, psd_v2_per_hz",
-            },
-            "sg_traces": {"curves": f"{CURVES_NAME}: trace_time_s, sg_mean_v, sg_std_v"},
-        }
+        """Every number as JSON-friendly types (the curves only by reference and summary);
+        a copy, so changing it leaves the diagnosis as it is."""
+        return copy.deepcopy(
+            {
+                "format_version": FORMAT_VERSION,
+                "source": self.source,
+                "n_trials": self.n_trials,
+                "complete": self.complete,
+                "shapes": list(self.shapes),
+                "materials": list(self.materials),
+                "conditions": list(self.conditions),
+                "classes": list(self.classes),
+                "trials_per_class": list(self.trials_per_class),
+                "n_features": dict(self.n_features),
+                "accuracy": self.accuracy,
+                "chance": self.chance,
+                "scored": self.scored,
+                "notes": self.notes,
+                "per_shape": self.per_shape,
+                "per_material": self.per_material,
+                "per_class": self.per_class,
+                "per_condition": self.per_condition,
+                "confused_pairs": {
+                    g: [vars(p) for p in pairs] for g, pairs in self.confused_pairs.items()
+                },
+                "confusion": {g: m.tolist() for g, m in self.confusion.items()},
+                "pvdf_spectra": {
+                    "welch_segment_samples": WELCH_SEGMENT_SAMPLES,
+                    "summary": self.spectra.summary(),
+                    "curves": f"{CURVES_NAME}: psd_freq_hz, psd_v2_per_hz",
+                },
+                "sg_traces": {"curves": f"{CURVES_NAME}: trace_time_s, sg_mean_v, sg_std_v"},
+            }
+        )
 
 
 # -- the analysis ------------------------------------------------------------------------
@@ -473,8 +477,12 @@ def diagnose(
     classes = _ordered(cls, CLASS_NAMES)
     cond, conditions = _conditions(data)
     labels = {"class": cls, "shape": data.shape, "material": data.material, "condition": cond}
-    plural = {"class": "classes", "shape": "shapes", "material": "materials"}
-    plural["condition"] = "conditions"
+    plural = {
+        "class": "classes",
+        "shape": "shapes",
+        "material": "materials",
+        "condition": "conditions",
+    }
 
     say("finding every trial's nearest neighbour (all features, SG only, PVDF only)")
     nearest = {g: loo_nearest(z[:, columns[g]]) for g in GROUP_NAMES}
@@ -509,14 +517,14 @@ def diagnose(
         return {g: _subset_accuracy(nearest[g], labels[target], values) for g in GROUP_NAMES}
 
     per_condition = None
-    if len(conditions) > 1:
+    if len(conditions) > 1 and accuracy["class"] is not None:
         say("class accuracy within each condition")
         per_condition = {}
         for c in conditions:
             rows = np.flatnonzero(cond == c)
             per_condition[c] = {}
             for g in GROUP_NAMES:
-                if rows.size < 2:
+                if np.unique(cls[rows]).size < 2:  # one class here: nothing to tell apart
                     per_condition[c][g] = None
                     continue
                 nn = loo_nearest(z[np.ix_(rows, columns[g])])
