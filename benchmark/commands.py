@@ -1,5 +1,5 @@
 """``tactile-synth`` sub-commands contributed by the ``benchmark`` package
-(``benchmark``, ``run``)."""
+(``benchmark``, ``run``, ``diagnose``)."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     """Add this package's sub-commands; each sets ``handler=callable(args) -> int``."""
     _register_benchmark(subparsers)
     _register_run(subparsers)
+    _register_diagnose(subparsers)
 
 
 def _register_benchmark(subparsers: argparse._SubParsersAction) -> None:
@@ -87,4 +88,71 @@ def _run(args: argparse.Namespace) -> int:
 
     run(args.out, quick=args.quick, seed=args.seed, workers=args.workers, progress=True)
     print(f"report: {args.out}/report.md")
+    return 0
+
+
+_DIAGNOSE_EPILOG = """\
+What the numbers mean (details: docs/diagnose.md):
+  Leave-one-out 1-nearest-neighbour (1-NN) accuracy on the z-scored 386-feature pool:
+  every trial gets the label of its nearest other trial (Euclidean distance), and the
+  accuracy is the share of trials labelled right. 1.0: every trial's closest trial has
+  its label; "chance" is what a random other trial gives.
+    class      shape and material both right (the benchmark's classes)
+    shape      shape right, whatever the material
+    material   material right, whatever the shape
+    condition  force/speed condition right (only with several conditions)
+  Rows restrict the distance to one channel group: all features, strain gauges only
+  (SG, the static channels), PVDF only (the dynamic channels). A label held by a single
+  trial cannot be scored and is left out; a target with one value in the dataset (e.g.
+  one material) is n/a. Per shape / per material: the shape (material) accuracy of that
+  shape's (material's) trials. Confused pairs: the class pairs whose trials most often
+  have their nearest neighbour in the other class.
+"""
+
+
+def _register_diagnose(subparsers: argparse._SubParsersAction) -> None:
+    """``tactile-synth diagnose DATA``: what a dataset's classes differ by."""
+    p = subparsers.add_parser(
+        "diagnose",
+        help="what a dataset's classes differ by (leave-one-out 1-NN per channel group)",
+        description=(
+            "Leave-one-out 1-NN accuracy of class, shape, material (and condition) per channel "
+            "group, per-shape and per-material accuracy, the most confused class pairs, PVDF "
+            "spectra per material and strain-gauge mean traces per shape. Prints a summary; "
+            "with --out also writes DIR/diagnose.md, diagnose.json, diagnose.npz and PNG figures."
+        ),
+        epilog=_DIAGNOSE_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("data", metavar="DATA", help="dataset (Zarr store from tactile-synth generate)")
+    p.add_argument("--out", metavar="DIR", help="write diagnose.md, JSON, curves and figures here")
+    p.add_argument(
+        "--allow-incomplete",
+        action="store_true",
+        help="diagnose the finished trials of an interrupted generation",
+    )
+    p.set_defaults(handler=_diagnose)
+
+
+def _diagnose(args: argparse.Namespace) -> int:
+    import sys
+    import time
+
+    from .diagnose import MARKDOWN_NAME, run_diagnose, summary_table
+
+    start = time.perf_counter()
+    diag = run_diagnose(
+        args.data,
+        out=args.out,
+        allow_incomplete=args.allow_incomplete,
+        progress=lambda msg: print(
+            f"[diagnose {time.perf_counter() - start:5.1f} s] {msg}", file=sys.stderr, flush=True
+        ),
+    )
+    print(summary_table(diag))
+    seconds = time.perf_counter() - start
+    if args.out:
+        print(f"wrote {args.out}/{MARKDOWN_NAME}, JSON, curves and figures in {seconds:.1f} s")
+    else:
+        print(f"diagnosed in {seconds:.1f} s (add --out DIR for diagnose.md and figures)")
     return 0
