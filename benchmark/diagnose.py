@@ -788,7 +788,13 @@ def markdown(diag: Diagnosis, figures: dict[str, str] | None = None) -> str:
     if "pvdf_spectra" in figures:
         md += ["", f"![PVDF spectra per material]({figures['pvdf_spectra']})"]
     md += ["", "## Strain-gauge mean traces per shape", ""]
-    md.append("Mean ± one standard deviation over each shape's trials (all materials).")
+    if len(diag.conditions) == 1:
+        md.append("Mean ± one standard deviation over each shape's trials (all materials).")
+    else:
+        md.append(
+            "Mean over each shape's trials (all materials), one colour per condition; "
+            "sg1 solid, sg2 dashed."
+        )
     if "sg_traces" in figures:
         md += ["", f"![SG mean traces per shape]({figures['sg_traces']})"]
     extra = [
@@ -801,7 +807,9 @@ def markdown(diag: Diagnosis, figures: dict[str, str] | None = None) -> str:
     ]
     if extra:
         md += ["", "## Figures", ""]
-        md += [f"![{t}]({figures[k]})" for k, t in extra]
+        for k, t in extra:
+            md += [f"![{t}]({figures[k]})", ""]
+        md.pop()
     md += [
         "",
         f"Numbers: `{JSON_NAME}`; curves: `{CURVES_NAME}` (numpy, no pickle). What each "
