@@ -120,10 +120,17 @@ class ClosedLoop:
         return (self.kinetic + (self.static - self.kinetic) * weak) * f**self.load_exp * self.scale
 
     def run(
-        self, datas: Sequence[mujoco.MjData], initial_state: np.ndarray, steps: int, nthread: int
+        self,
+        datas: Sequence[mujoco.MjData],
+        initial_state: np.ndarray,
+        steps: int,
+        nthread: int,
+        record_qpos: bool = False,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Roll the batch ``steps`` physics steps (a multiple of the update period) from
-        ``initial_state`` ``(b, nstate)`` on ``datas`` (one per thread)."""
+        ``initial_state`` ``(b, nstate)`` on ``datas`` (one per thread). With
+        ``record_qpos`` the joint positions ``(b, steps, nq)`` are kept in ``qpos_``
+        (for replaying a trial in a viewer)."""
         cfg = self.config
         mot = cfg.motion
         dt, k = mot.timestep_s, mot.surface_steps
@@ -140,6 +147,7 @@ class ClosedLoop:
         height_out = np.empty((nseg, b, k))
         control = np.zeros((b, k, lay["size"].stop))
         state_buf = np.empty((b, k, nstate))
+        qpos_out = np.empty((nseg, b, k, self.nq)) if record_qpos else None
         x_seg = self.x_ref[:, :steps].reshape(b, nseg, k)
         y_seg = self.y_ref[:, :steps].reshape(b, nseg, k)
         state = np.ascontiguousarray(initial_state)
@@ -195,6 +203,8 @@ class ClosedLoop:
             sens = sens_out[g]
             runner.rollout(self.models, datas, k, spec, state, warm, control, state_buf, sens, None)
             height_out[g] = h
+            if qpos_out is not None:
+                qpos_out[g] = state_buf[:, :, 1 : 1 + self.nq]
             if any(w.number for ws in warnings for w in ws):
                 return self._finish(sens_out, height_out, steps)
             state = state_buf[:, k - 1].copy()
@@ -208,6 +218,10 @@ class ClosedLoop:
             v_now = (slip * direction).sum(axis=1)
             slip_speed = np.hypot(slip[:, 0], slip[:, 1])
             wrist_sum -= sens[:, :, c_wrist].sum(axis=1)
+        if qpos_out is not None:
+            self.qpos_ = np.ascontiguousarray(qpos_out.transpose(1, 0, 2, 3)).reshape(
+                b, steps, self.nq
+            )
         return self._finish(sens_out, height_out, steps)
 
     @staticmethod

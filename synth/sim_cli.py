@@ -61,13 +61,12 @@ def display_available() -> bool:
 
 
 def _view(args: argparse.Namespace) -> int:
+    import time
+
     import mujoco
 
-    from .simulator import plan
-    from .trial import TrialSpec
+    from .simulator import replay
 
-    spec = TrialSpec(args.shape, args.material, args.force, args.speed, args.seed)
-    trial_plan = plan(spec, _config())
     if not display_available():
         print(
             "tactile-synth view: no display (DISPLAY/WAYLAND_DISPLAY unset), so MuJoCo's "
@@ -79,25 +78,20 @@ def _view(args: argparse.Namespace) -> int:
         return 2
     import mujoco.viewer
 
-    model = trial_plan.model
+    from .trial import TrialSpec
+
+    spec = TrialSpec(args.shape, args.material, args.force, args.speed, args.seed)
+    model, qpos, specimen_z = replay(spec, _config())
     data = mujoco.MjData(model)
-    data.qpos[:] = trial_plan.initial_qpos
-    steps = trial_plan.control.shape[0]
-    from .scene import CONTROL_SPEC
-
     with mujoco.viewer.launch_passive(model, data) as viewer:
-        import time
-
         step = 0
-        while viewer.is_running():
+        while viewer.is_running():  # replay the simulated trial in real time, in a loop
             start = time.perf_counter()
-            mujoco.mj_setState(model, data, trial_plan.control[step % steps], CONTROL_SPEC)
-            mujoco.mj_step(model, data)
-            step += 1
-            if step % steps == 0:  # replay the trial from its start
-                mujoco.mj_resetData(model, data)
-                data.qpos[:] = trial_plan.initial_qpos
+            data.qpos[:] = qpos[step]
+            data.mocap_pos[0, 2] = specimen_z[step]
+            mujoco.mj_forward(model, data)
             viewer.sync()
+            step = (step + 1) % len(qpos)
             time.sleep(max(0.0, model.opt.timestep - (time.perf_counter() - start)))
     return 0
 

@@ -496,6 +496,17 @@ def raw_rollout(
     return wall
 
 
+def replay(spec: TrialSpec, config: SynthConfig | None = None):
+    """``(model, qpos (steps, nq), specimen heights (steps,))`` of one simulated trial, for
+    replaying its motion in a viewer."""
+    config = _check_config(config)
+    p = plan(spec, config)
+    loop = ClosedLoop([p.model], [p.loop], config)
+    datas = [mujoco.MjData(p.model)]
+    _, heights = loop.run(datas, _initial_states([p]), p.steps, 1, record_qpos=True)
+    return p.model, loop.qpos_[0], heights[0]
+
+
 def simulate(
     shape: str,
     material: str,
