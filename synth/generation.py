@@ -232,7 +232,7 @@ def _check_same(requested: GenerationConfig, stored: GenerationConfig, where: st
     diff = [k for k in sorted(set(want) | set(have)) if want.get(k) != have.get(k)]
     if diff:
         raise store.DatasetError(
-            f"--resume: {where} was generated with a different configuration "
+            f"{where} was generated with a different configuration "
             f"({', '.join(f'{k}={have.get(k)!r} there, {want.get(k)!r} here' for k in diff)})",
             "resume without grid options, or use --overwrite",
         )
@@ -288,7 +288,7 @@ def _resume_job(config: GenerationConfig | None, out: Path, target: Path, *, rep
         if mismatch:
             pv, mv = st.meta.get("package_version"), st.meta.get("mujoco_version")
             raise store.DatasetError(
-                f"--resume: {where} was written by other versions ({'; '.join(mismatch)}), "
+                f"{where} was written by other versions ({'; '.join(mismatch)}), "
                 f"and chunks simulated here would not match its {int(done.sum())} finished ones",
                 f"finish it with the versions that wrote it (pip install tactile-synth=={pv} "
                 f"mujoco=={mv}), or start over with --overwrite",
