@@ -107,6 +107,7 @@ class OutputDir:
 
     # -- the context -----------------------------------------------------------------------
     def __enter__(self) -> Path:
+        atomic.check_dir_path(self.out)
         try:
             self._lock.acquire()
         except atomic.LockedError as exc:

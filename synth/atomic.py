@@ -42,6 +42,17 @@ def sibling(path: str | Path, role: str) -> Path:
     return p.parent / f".{p.name}{SUFFIX}-{role}"
 
 
+def check_dir_path(path: str | Path, arg: str = "--out") -> None:
+    """``NotADirectoryError`` naming ``arg`` if a file stands where ``path`` or one of its
+    parent directories must be."""
+    p = Path(os.path.abspath(path))
+    for parent in p.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise NotADirectoryError(f"{arg} {path}: {parent} is a file, not a directory")
+            return
+
+
 class PathLock:
     """Exclusive lock on ``path`` (existing or not) for this process; use as a context
     manager. Raises :class:`LockedError` at once if another process (or another

@@ -407,6 +407,7 @@ def generate(
     workers = 1 if workers is None else check_int("workers", workers, minimum=1)
     if threads is not None:
         check_int("threads", threads, minimum=1)
+    atomic.check_dir_path(out)
     with store.locked(out):
         job = prepare(
             config,

@@ -278,7 +278,13 @@ def create(path: str | Path, config: GenerationConfig) -> str:
 
 # -- opening ------------------------------------------------------------------------------
 def _missing_message(path: Path) -> str:
-    pending = pending_path(path)
+    pending, old = pending_path(path), atomic.sibling(path, "old")
+    if old.exists():
+        return (
+            f"dataset {path} is being replaced right now, or its replacement was interrupted "
+            f"(the previous version is at {old}); retry in a moment, or complete it with "
+            f"`tactile-synth generate --resume --out {path}`"
+        )
     if is_store(pending):
         return (
             f"dataset {path} does not exist, but an interrupted generation left its "
