@@ -513,6 +513,6 @@ def _run(
         bar.close()
         if owned is not None:
             owned.shutdown(wait=True)
-    done = store.done_mask(store.open_store(job.target)[0])
+    done = store.Store.open(job.target).status()[0]
     if not done.all():  # pragma: no cover - every task either finished or raised
         raise RuntimeError(f"{job.target}: {int((~done).sum())} chunks still missing after the run")

@@ -36,7 +36,6 @@ import datetime as _dt
 import importlib.metadata
 import json
 import os
-import shutil
 import uuid
 from collections.abc import Iterable, Iterator, Sequence
 from contextlib import contextmanager
@@ -94,15 +93,17 @@ class DatasetLocked(DatasetError):
 @dataclass(frozen=True)
 class Problem:
     """One damaged part of a store: ``what`` (e.g. ``"chunk 3"``, ``"label"``), the
-    ``file`` holding it, and ``why`` it fails."""
+    ``file`` holding it, ``why`` it fails, and for a chunk its index and trials."""
 
     what: str
     file: Path
     why: str
     chunk: int | None = None
+    trials: str = ""
 
     def __str__(self) -> str:
-        return f"{self.what} ({self.file}) {self.why}"
+        where = f"{self.trials}, file {self.file}" if self.trials else f"file {self.file}"
+        return f"{self.what} ({where}) {self.why}"
 
 
 class DatasetDamaged(DatasetError):
@@ -464,7 +465,7 @@ class Store:
 
     def status(self) -> tuple[np.ndarray, list[Problem]]:
         """``(done, problems)``: bool ``(n_chunks,)`` of chunks marked complete, and the
-        marked chunks whose flag or checksum file is damaged (they count as not done)."""
+        chunks whose done-flag file is damaged (they count as not done)."""
         done, bad_done = self._flags("done")
         mask = done == 1
         problems = [
@@ -488,10 +489,11 @@ class Store:
     def _chunk_problem(self, chunk: int, why: str) -> Problem:
         r = self.rows(chunk)
         return Problem(
-            f"chunk {chunk} (trials {r.start}-{r.stop - 1})",
+            f"chunk {chunk}",
             self.file("signals", chunk),
             why,
             chunk=chunk,
+            trials=f"trials {r.start}-{r.stop - 1}",
         )
 
     def _check_chunk(self, chunk: int, data: np.ndarray, recorded: int) -> Problem | None:
@@ -590,29 +592,6 @@ def _decode_error(exc: BaseException) -> str:
     return text.splitlines()[0]
 
 
-def open_store(path: str | Path, mode: str = "r") -> tuple[Any, dict[str, Any]]:
-    """``(zarr group, provenance attrs)`` of a tactile-synth store; one-line errors naming
-    the fix when ``path`` is not one, is damaged or has another format version."""
-    store = Store.open(path, mode)
-    return store.group, store.meta
-
-
-def done_mask(group: Any) -> np.ndarray:
-    """bool ``(n_chunks,)``: which chunks are marked complete (unverified; see
-    :meth:`Store.status`)."""
-    try:
-        return np.asarray(group["done"][:]) == 1
-    except Exception:
-        arr = group["done"]
-        out = np.zeros(arr.shape, dtype=bool)
-        for k in range(arr.shape[0]):
-            try:
-                out[k] = arr[k] == 1
-            except Exception:
-                out[k] = False
-        return out
-
-
 # -- writing ------------------------------------------------------------------------------
 def write_chunk(
     path: str | Path,
@@ -699,17 +678,6 @@ def remove_partial_files(path: str | Path) -> int:
         tmp.unlink(missing_ok=True)
         count += 1
     return count
-
-
-def remove(path: str | Path) -> None:
-    """Delete a store (only a Zarr group directory, so a mistyped path cannot wipe a folder)."""
-    path = Path(path)
-    if not is_store(path):
-        raise FileExistsError(
-            f"{path} exists and is not a tactile-synth dataset; refusing to overwrite it "
-            f"(choose another --out or delete it yourself)"
-        )
-    shutil.rmtree(path)
 
 
 # -- loading ------------------------------------------------------------------------------

@@ -183,7 +183,7 @@ def test_deleted_signal_chunk_is_named_and_repaired_bit_identical(complete, caps
     with pytest.raises(store.DatasetDamaged) as info:
         load_dataset(out)
     msg = str(info.value)
-    assert "chunk 1 (trials 4-7)" in msg and str(out / "signals/c/1/0/0") in msg
+    assert f"chunk 1 (trials 4-7, file {out / 'signals/c/1/0/0'}) is missing" in msg
     assert "is missing" in msg and store.repair_command(out) in msg
     code, text, _ = cli(["inspect", out], capsys)
     assert code == 1 and "integrity  DAMAGED: chunk 1" in text and "complete   yes" in text
