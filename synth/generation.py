@@ -168,13 +168,10 @@ def _existing_parent(path: Path) -> Path:
     return p if p.is_dir() else p.parent
 
 
-def check_resources(
-    config: GenerationConfig, out: Path, *, workers: int, threads: int | None, local: bool
-) -> None:
+def check_resources(config: GenerationConfig, out: Path, *, workers: int, local: bool) -> None:
     """Refuse a run the machine cannot hold, before anything starts, naming the argument and
     the estimate: the store against the free disk space at ``out``, the plan and the
-    chunks in flight against the available memory, and local processes and threads
-    against the cores."""
+    chunks in flight against the available memory."""
     n = config.n_trials
     disk = n * store.TRIAL_BYTES * _DISK_FRACTION
     where = _existing_parent(out)
@@ -189,17 +186,6 @@ def check_resources(
             f"{_fmt_bytes(disk)} on disk, but {where} has {_fmt_bytes(free)} free; "
             f"make the grid smaller or choose another --out"
         )
-    ncpu = os.cpu_count() or 1
-    if local and workers > _PER_CORE * ncpu:
-        raise ValueError(
-            f"--workers {workers}: this machine has {ncpu} cores; more than "
-            f"{_PER_CORE * ncpu} processes only compete for them"
-        )
-    if threads is not None and local and threads > _PER_CORE * ncpu:
-        raise ValueError(
-            f"--threads {threads}: this machine has {ncpu} cores; more than "
-            f"{_PER_CORE * ncpu} rollout threads only compete for them"
-        )
     in_flight = 2 * max(workers, 1)
     memory = (
         n * _PLAN_BYTES_PER_TRIAL
@@ -213,6 +199,21 @@ def check_resources(
             f"{in_flight} chunks of {config.chunk_trials} trials in flight, {workers} workers) "
             f"but {_fmt_bytes(have)} is available; lower --trials-per-class, "
             f"--chunk-trials or --workers"
+        )
+
+
+def check_parallelism(workers: int, threads: int | None, *, local: bool) -> None:
+    """Refuse more local processes or rollout threads than the cores can use."""
+    ncpu = os.cpu_count() or 1
+    if local and workers > _PER_CORE * ncpu:
+        raise ValueError(
+            f"--workers {workers}: this machine has {ncpu} cores; more than "
+            f"{_PER_CORE * ncpu} processes only compete for them"
+        )
+    if threads is not None and local and threads > _PER_CORE * ncpu:
+        raise ValueError(
+            f"--threads {threads}: this machine has {ncpu} cores; more than "
+            f"{_PER_CORE * ncpu} rollout threads only compete for them"
         )
 
 
@@ -312,7 +313,6 @@ def prepare(
     overwrite: bool = False,
     repair: bool = False,
     workers: int = 1,
-    threads: int | None = None,
     local: bool = True,
 ) -> Job:
     """Check everything, then create (or, for ``resume``, check) the store; returns the
@@ -365,7 +365,7 @@ def prepare(
     synth = dict(config.synth) if config.synth is not None else default_synth_config()
     validate_synth_config(synth)
     config = config.replace(synth=synth)
-    check_resources(config, out, workers=workers, threads=threads, local=local)
+    check_resources(config, out, workers=workers, local=local)
     # Every check passed: build the new store's skeleton beside the path.
     if pending.exists():
         shutil.rmtree(pending)  # an unfinished replacement or skeleton of ours
@@ -407,27 +407,37 @@ def generate(
     workers = 1 if workers is None else check_int("workers", workers, minimum=1)
     if threads is not None:
         check_int("threads", threads, minimum=1)
+    local = executor is None
+    check_parallelism(workers, threads, local=local)
     atomic.check_dir_path(out)
-    with store.locked(out):
-        job = prepare(
-            config,
-            out,
-            resume=resume,
-            overwrite=overwrite,
-            repair=repair,
-            workers=workers,
-            threads=threads,
-            local=executor is None,
-        )
-        if job.todo:
-            store.remove_partial_files(job.target)
-        if job.clear:
-            store.clear_chunks(job.target, job.clear)
-        if job.rewrite:
-            store.rewrite_plan(job.target, job.rewrite)
-        _run(job, workers, threads, executor, ncpu, progress, simulator)
-        if job.replacing:
-            atomic.replace_dir(job.target, out)
+    made = [p for p in Path(os.path.abspath(out)).parents if not p.exists()]  # deepest first
+    try:
+        with store.locked(out):
+            job = prepare(
+                config,
+                out,
+                resume=resume,
+                overwrite=overwrite,
+                repair=repair,
+                workers=workers,
+                local=local,
+            )
+            if job.todo:
+                store.remove_partial_files(job.target)
+            if job.clear:
+                store.clear_chunks(job.target, job.clear)
+            if job.rewrite:
+                store.rewrite_plan(job.target, job.rewrite)
+            _run(job, workers, threads, executor, ncpu, progress, simulator)
+            if job.replacing:
+                atomic.replace_dir(job.target, out)
+    except BaseException:
+        for p in made:  # directories made only for the lock file go again
+            try:
+                p.rmdir()
+            except OSError:
+                break
+        raise
     return out
 
 

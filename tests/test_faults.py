@@ -445,21 +445,21 @@ def test_perturbation_data_overlapping_the_nominal_data_is_refused(complete, cap
     ],
 )
 def test_huge_generation_arguments_are_refused_at_once(tmp_path, capsys, args, expect):
-    out = tmp_path / "ds"
+    out = tmp_path / "new" / "ds"
     t0 = time.perf_counter()
     code, _, err = cli(["generate", "--preset", "quick", "--out", out, *args], capsys)
     assert code == 2 and expect in one_line(err)
     assert time.perf_counter() - t0 < 10
-    assert not out.exists() and not store.pending_path(out).exists()
+    assert list(tmp_path.iterdir()) == []  # nothing created, not even the parent
 
 
 def test_a_grid_larger_than_the_free_disk_is_refused_with_the_estimate(tmp_path, monkeypatch):
     usage = shutil.disk_usage(tmp_path)
     monkeypatch.setattr(generation.shutil, "disk_usage", lambda p: usage._replace(free=100_000))
-    out = tmp_path / "ds"
+    out = tmp_path / "new" / "ds"
     with pytest.raises(ValueError, match=r"12 trials .* about 192.0 kB on disk, but .* 100.0 kB"):
         make(out)
-    assert not out.exists() and not store.pending_path(out).exists()
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_huge_episode_counts_are_refused_before_any_work(complete, capsys, tmp_path):
