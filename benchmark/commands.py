@@ -95,15 +95,27 @@ def _register_run(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
+    import shlex
+    import sys
+
     from .run import run
 
-    run(
-        args.out,
-        quick=args.quick,
-        seed=args.seed,
-        workers=args.workers,
-        progress=True,
-        overwrite=args.overwrite,
-    )
+    try:
+        run(
+            args.out,
+            quick=args.quick,
+            seed=args.seed,
+            workers=args.workers,
+            progress=True,
+            overwrite=args.overwrite,
+        )
+    except KeyboardInterrupt:
+        again = shlex.join(getattr(args, "argv", None) or ["run", "--out", str(args.out)])
+        print(
+            f"tactile-synth run: interrupted; the finished datasets and protocols in {args.out} "
+            f"are kept: `tactile-synth {again}` continues from them",
+            file=sys.stderr,
+        )
+        return 130
     print(f"report: {args.out}/report.md")
     return 0

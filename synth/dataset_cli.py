@@ -155,7 +155,10 @@ def _generate(args: argparse.Namespace) -> int:
     if args.scheduler:
         from dask.distributed import Client
 
-        client = Client(args.scheduler)
+        try:
+            client = Client(args.scheduler)
+        except (OSError, ValueError, TimeoutError) as exc:
+            raise ValueError(f"--scheduler {args.scheduler}: cannot connect ({exc})") from None
         executor = client.get_executor()
         workers = workers or max(len(client.scheduler_info()["workers"]), 1)
     start = time.perf_counter()

@@ -293,6 +293,10 @@ def test_damaged_metadata_is_one_line_naming_the_file(complete, capsys, part):
         code, _, err = cli(args, capsys)
         line = one_line(err)
         assert code == 2 and str(out / part) in line and "--overwrite" in line
+    if part != "zarr.json":  # the configuration survives: the advised command rebuilds it
+        code, _, err = cli(["generate", "--from-config", out, "--out", out, "--overwrite"], capsys)
+        assert code == 0, err
+        assert len(load_dataset(out)) == 12
 
 
 # -- 3. overwrite failing half-way ---------------------------------------------------------
@@ -508,6 +512,8 @@ def test_cli_errors_are_one_line_naming_the_path(tmp_path, capsys, monkeypatch):
     assert code == 2 and str(a_file) in one_line(err)
     code, _, err = cli(["inspect", tmp_path / "nothing"], capsys)
     assert code == 2 and "does not exist" in one_line(err)
+    code, _, err = cli(["generate", "--out", tmp_path / "d", "--scheduler", "bad::addr"], capsys)
+    assert code == 2 and "--scheduler bad::addr: cannot connect" in one_line(err)
 
     import synth.dataset_cli as dataset_cli
 
@@ -565,6 +571,20 @@ def test_ctrl_c_after_creation_resume_regenerates_what_was_asked(tmp_path, capsy
     assert code == 0 and "12 trials (2 classes x 2 conditions x 3 trials)" in text
     code, _, err = cli(["generate", "--resume", "--out", tmp_path / "never"], capsys)
     assert code == 2 and "nothing to resume" in one_line(err)  # not the paper preset
+
+
+def test_ctrl_c_in_run_keeps_its_datasets_and_says_how_to_continue(tmp_path, capsys, monkeypatch):
+    runs = tmp_path / "runs"
+    monkeypatch.setattr(
+        generation, "mujoco_simulator", FakeSimulator(fail_at=1, error=KeyboardInterrupt())
+    )
+    code, _, err = cli(["run", "--out", runs, "--quick"], capsys)
+    assert code == 130
+    assert f"`tactile-synth run --out {runs} --quick` continues" in err
+    done = store.Store.open(runs / "data" / "nominal").status()[0]
+    assert done.sum() == 1  # the finished chunk is kept for the next run
+    assert (runs / ".tactile-synth-output").is_file()  # and the next run accepts the DIR
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["runs"]
 
 
 def test_run_advice_names_only_runs_options(tmp_path, capsys):
