@@ -153,12 +153,16 @@ def _fmt_bytes(n: float) -> str:
 
 
 def available_memory() -> int:
-    """Bytes of memory available to a new allocation (total memory where unknown)."""
+    """Bytes of memory a new allocation can get: Linux's MemAvailable (free memory plus
+    reclaimable caches), else the total physical memory."""
     try:
-        pages = os.sysconf("SC_AVPHYS_PAGES")
-    except (ValueError, OSError):  # macOS has no SC_AVPHYS_PAGES
-        pages = os.sysconf("SC_PHYS_PAGES")
-    return int(pages) * int(os.sysconf("SC_PAGE_SIZE"))
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return int(os.sysconf("SC_PHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
 
 
 def _existing_parent(path: Path) -> Path:
