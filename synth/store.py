@@ -395,26 +395,26 @@ class Store:
             expected[name] = ((n,), (max(n, 1),), dtype)
         for name, (shape, chunks, dtype) in expected.items():
             meta_file = self.path / name / "zarr.json"
+            regenerate = (
+                f"regenerate the dataset with `tactile-synth generate --from-config "
+                f"{self.path} --out {self.path} --overwrite`"
+            )
             try:
                 arr = self.group[name]
-            except KeyError:
+            except Exception as exc:  # zarr raises JSON, key and type errors on bad metadata
+                if not meta_file.exists():
+                    raise DatasetError(
+                        f"dataset {self.path} has no {name} array ({meta_file} is missing)",
+                        regenerate,
+                    ) from None
                 raise DatasetError(
-                    f"dataset {self.path} has no {name} array ({meta_file} is missing)",
-                    f"regenerate it with `tactile-synth generate --from-config {self.path} "
-                    f"--out {self.path} --overwrite`",
-                ) from None
-            except Exception as exc:  # zarr raises JSON, key and type errors from bad metadata
-                raise DatasetError(
-                    f"{meta_file} is damaged ({type(exc).__name__}: {exc})",
-                    f"regenerate the dataset with `tactile-synth generate --from-config "
-                    f"{self.path} --out {self.path} --overwrite`",
+                    f"{meta_file} is damaged ({type(exc).__name__}: {exc})", regenerate
                 ) from None
             if (arr.shape, arr.chunks, str(arr.dtype)) != (shape, chunks, dtype):
                 raise DatasetError(
                     f"{meta_file} describes {arr.dtype} {arr.shape} in chunks {arr.chunks}, "
                     f"but the dataset's configuration needs {dtype} {shape} in chunks {chunks}",
-                    f"regenerate it with `tactile-synth generate --from-config {self.path} "
-                    f"--out {self.path} --overwrite`",
+                    regenerate,
                 )
             self.arrays[name] = arr
 
