@@ -43,6 +43,11 @@ def _register_benchmark(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--episodes", type=int, default=500, help="episodes per cell (default 500)")
     p.add_argument("--seed", type=int, default=0, help="seed of splits and episodes (default 0)")
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the contents of a non-empty DIR that tactile-synth did not write",
+    )
     p.set_defaults(handler=_benchmark)
 
 
@@ -57,6 +62,7 @@ def _benchmark(args: argparse.Namespace) -> int:
         methods=args.methods,
         episodes=args.episodes,
         seed=args.seed,
+        overwrite=args.overwrite,
     )
     print(f"wrote {args.out}/results.json and {args.out}/report.md")
     return 0
@@ -71,7 +77,7 @@ def _register_run(subparsers: argparse._SubParsersAction) -> None:
             "From nothing: generate the 'paper' and 'perturbation' datasets into "
             "DIR/data (small ones with --quick), then run 'benchmark all' into DIR "
             "(results.json, report.md, PNG figures). Re-running on the same DIR reuses "
-            "finished datasets and protocols."
+            "finished datasets and protocols and replaces the outputs at once."
         ),
     )
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
@@ -80,13 +86,38 @@ def _register_run(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--workers", type=int, help="generation processes (default 1: rollout threads on all cores)"
     )
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the contents of a non-empty DIR that tactile-synth did not write "
+        "(DIR/data and DIR/checkpoints are kept)",
+    )
     p.set_defaults(handler=_run)
 
 
 def _run(args: argparse.Namespace) -> int:
+    import shlex
+    import sys
+
     from .run import run
 
-    run(args.out, quick=args.quick, seed=args.seed, workers=args.workers, progress=True)
+    try:
+        run(
+            args.out,
+            quick=args.quick,
+            seed=args.seed,
+            workers=args.workers,
+            progress=True,
+            overwrite=args.overwrite,
+        )
+    except KeyboardInterrupt:
+        again = shlex.join(getattr(args, "argv", None) or ["run", "--out", str(args.out)])
+        print(
+            f"tactile-synth run: interrupted; the finished datasets and protocols in {args.out} "
+            f"are kept: `tactile-synth {again}` continues from them",
+            file=sys.stderr,
+        )
+        return 130
     print(f"report: {args.out}/report.md")
     return 0
 

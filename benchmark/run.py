@@ -5,7 +5,8 @@ Interruptions lose nothing already finished: each protocol's records are saved t
 ``DIR/checkpoints/<protocol>.json`` as soon as it completes, keyed by everything that
 determines them (dataset fingerprints, methods, episode budgets, seed); a re-run with the
 same inputs reuses them. ``run`` passes ``resume=True`` to the generator, so completed
-datasets are reused and interrupted ones completed.
+datasets are reused and interrupted ones completed. The output directories are managed by
+:mod:`benchmark.outputs` (refuse foreign files, replace the output set at once).
 """
 
 from __future__ import annotations
@@ -250,7 +251,7 @@ def benchmark_all(
         ],
     }
     write_report(records, out, meta)
-    _log(progress, f"done in {time.perf_counter() - t_start:.0f} s: {out / 'report.md'}")
+    _log(progress, f"done in {time.perf_counter() - t_start:.0f} s")
     return records
 
 
@@ -502,37 +503,46 @@ def run(
     progress: bool = True,
     workers: int | None = None,
     simulator: Any = None,
+    overwrite: bool = False,
 ) -> list[dict]:
     """Generate the nominal and perturbation datasets into ``out/data`` (reusing or
     completing any already there) and run :func:`benchmark_all` into ``out``.
 
-    ``simulator`` replaces the MuJoCo simulator (tests only; see :func:`synth.generate`).
+    ``out`` is refused if it holds files this tool did not write, unless ``overwrite``;
+    its output set is replaced at once at the end, its datasets and checkpoints kept
+    (see :mod:`benchmark.outputs`). ``simulator`` replaces the MuJoCo simulator (tests
+    only; see :func:`synth.generate`).
     """
-    from synth import generate, load_dataset
+    from synth import load_dataset
+
+    from .guards import check_perturbation_pair, generate_for_run
+    from .outputs import OutputDir
 
     check_int("seed", seed, minimum=0)
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise FileExistsError(f"--out {out} is a file; choose a directory")
     plan = run_plan(quick, seed=seed)
-    paths = {}
-    for name, config in (("nominal", plan.nominal), ("perturbation", plan.perturbation)):
-        path = out / "data" / name
-        _log(progress, f"generating the {name} dataset into {path} (resumable)")
-        t0 = time.perf_counter()
-        generate(config, path, resume=True, progress=progress, workers=workers, simulator=simulator)
-        _log(progress, f"{name} dataset ready ({time.perf_counter() - t0:.0f} s)")
-        paths[name] = path
-    data = load_dataset(paths["nominal"])
-    perturbed = load_dataset(paths["perturbation"])
-    return benchmark_all(
-        data,
-        perturbed,
-        out,
-        methods=plan.methods,
-        budget=plan.budget,
-        seed=seed,
-        progress=progress,
-        data_path=paths["nominal"],
-        perturbed_path=paths["perturbation"],
-    )
+    with OutputDir(out, overwrite=overwrite, command="run") as target:
+        paths = {}
+        for name, config in (("nominal", plan.nominal), ("perturbation", plan.perturbation)):
+            path = out / "data" / name
+            _log(progress, f"generating the {name} dataset into {path} (resumable)")
+            t0 = time.perf_counter()
+            generate_for_run(config, path, progress=progress, workers=workers, simulator=simulator)
+            _log(progress, f"{name} dataset ready ({time.perf_counter() - t0:.0f} s)")
+            paths[name] = path
+        data = load_dataset(paths["nominal"])
+        perturbed = load_dataset(paths["perturbation"])
+        check_perturbation_pair(data, perturbed)
+        return benchmark_all(
+            data,
+            perturbed,
+            target,
+            methods=plan.methods,
+            budget=plan.budget,
+            seed=seed,
+            progress=progress,
+            data_path=paths["nominal"],
+            perturbed_path=paths["perturbation"],
+        )

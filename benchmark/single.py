@@ -9,6 +9,8 @@ from models.registry import METHOD_NAMES
 from shapes.validation import check_choice, check_int
 
 from . import figures
+from .guards import check_episodes, check_perturbation_pair
+from .outputs import OutputDir
 from .protocols import PROTOCOL_NAMES, protocol_runner
 from .protocols.generalisation import check_methods
 from .results import write_results
@@ -25,8 +27,14 @@ def benchmark_protocol(
     episodes: int = 500,
     seed: int = 0,
     progress: bool = True,
+    overwrite: bool = False,
 ) -> list[dict]:
-    """Run ``protocol`` (one of the four, or ``"all"``) and write results, report, figures."""
+    """Run ``protocol`` (one of the four, or ``"all"``) and write results, report, figures.
+
+    ``out`` is refused if it holds files this tool did not write, unless ``overwrite``;
+    its whole output set is replaced at once when the run succeeds (see
+    :mod:`benchmark.outputs`).
+    """
     from synth import load_dataset
 
     from .report import write_report
@@ -34,50 +42,55 @@ def benchmark_protocol(
 
     check_choice("protocol", protocol, (*PROTOCOL_NAMES, "all"))
     methods = check_methods(list(methods) if methods else list(METHOD_NAMES))
-    check_int("episodes", episodes, minimum=1)
+    check_episodes(episodes)
     check_int("seed", seed, minimum=0)
     if protocol in ("perturbation", "all") and perturbed_path is None:
         raise ValueError(f"--perturbed is required for the {protocol} protocol")
     data = load_dataset(data_path)
     perturbed = load_dataset(perturbed_path) if perturbed_path is not None else None
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise FileExistsError(f"--out {out} is a file; choose a directory")
-    out.mkdir(parents=True, exist_ok=True)
-    if protocol == "all":
-        return benchmark_all(
+    if perturbed is not None and protocol in ("perturbation", "all"):
+        check_perturbation_pair(data, perturbed)
+    inputs = (data_path, perturbed_path)
+    with OutputDir(out, overwrite=overwrite, command=f"benchmark {protocol}", inputs=inputs) as out:
+        if protocol == "all":
+            return benchmark_all(
+                data,
+                perturbed,
+                out,
+                methods=methods,
+                budget=Budget(default=episodes),
+                seed=seed,
+                progress=progress,
+                data_path=data_path,
+                perturbed_path=perturbed_path,
+            )
+        records = protocol_runner(protocol)(
             data,
-            perturbed,
-            out,
+            perturbed=perturbed,
             methods=methods,
-            budget=Budget(default=episodes),
+            episodes=episodes,
             seed=seed,
             progress=progress,
-            data_path=data_path,
-            perturbed_path=perturbed_path,
         )
-    records = protocol_runner(protocol)(
-        data, perturbed=perturbed, methods=methods, episodes=episodes, seed=seed, progress=progress
-    )
-    write_results(out / "results.json", records)
-    made: dict[str, str] = {}
-    if protocol == "closed-set":
-        (out / "table1.md").write_text(table_one(records))
-        made["table1"] = "table1.md"
-    else:
-        figures.generalisation_curves(records, out / "generalisation.png")
-        made["generalisation"] = "generalisation.png"
-    if any(r.get("record") == "selection" for r in records):
-        figures.selection_bars(records, out / "selection.png")
-        made["selection"] = "selection.png"
-    meta = {
-        "seed": seed,
-        "data": dataset_summary(data, data_path),
-        "perturbed": None if perturbed is None else dataset_summary(perturbed, perturbed_path),
-        "methods": list(methods),
-        "episodes": f"{episodes} per cell",
-        "figures": made,
-        "notes": [f"protocol {protocol} only"],
-    }
-    write_report(records, out, meta)
-    return records
+        write_results(out / "results.json", records)
+        made: dict[str, str] = {}
+        if protocol == "closed-set":
+            (out / "table1.md").write_text(table_one(records))
+            made["table1"] = "table1.md"
+        else:
+            figures.generalisation_curves(records, out / "generalisation.png")
+            made["generalisation"] = "generalisation.png"
+        if any(r.get("record") == "selection" for r in records):
+            figures.selection_bars(records, out / "selection.png")
+            made["selection"] = "selection.png"
+        meta = {
+            "seed": seed,
+            "data": dataset_summary(data, data_path),
+            "perturbed": None if perturbed is None else dataset_summary(perturbed, perturbed_path),
+            "methods": list(methods),
+            "episodes": f"{episodes} per cell",
+            "figures": made,
+            "notes": [f"protocol {protocol} only"],
+        }
+        write_report(records, out, meta)
+        return records

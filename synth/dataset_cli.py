@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 import time
 from pathlib import Path
@@ -46,11 +47,26 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--threads", type=int, help="MuJoCo rollout threads per task")
     p.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler, e.g. tcp://host:8786")
     mode = p.add_mutually_exclusive_group()
-    mode.add_argument("--resume", action="store_true", help="complete an interrupted store")
-    mode.add_argument("--overwrite", action="store_true", help="replace an existing store")
+    mode.add_argument(
+        "--resume",
+        action="store_true",
+        help="complete an interrupted store (or an interrupted --overwrite of it)",
+    )
+    mode.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace an existing store (built beside it, swapped in when complete)",
+    )
+    p.add_argument(
+        "--repair",
+        action="store_true",
+        help="with --resume: re-simulate the chunks that fail their checks (bit-identical)",
+    )
     p.set_defaults(handler=_generate)
 
-    p = subparsers.add_parser("inspect", help="summarise a dataset store")
+    p = subparsers.add_parser(
+        "inspect", help="summarise a dataset store and check every chunk (exit 1 if damaged)"
+    )
     p.add_argument("path")
     p.set_defaults(handler=_inspect)
 
@@ -93,75 +109,112 @@ def config_from_args(args: argparse.Namespace) -> Any:
     for key in ("shapes", "materials", "forces_n", "speeds_mm_s"):
         if key in overrides:
             overrides[key] = tuple(overrides[key])
+    resume = args.resume or args.repair
     if args.preset:
         config = preset(args.preset)
     elif args.config:
         config = load_toml(args.config)
     elif args.from_config:
         config = store.stored_config(args.from_config)
-    elif args.resume and store.is_store(Path(args.out)):
-        config = store.stored_config(args.out)
+    elif resume:
         if not overrides:
-            return None
+            return None  # the stored grid (of the dataset, or of its unfinished replacement)
+        out = Path(args.out)
+        pending = store.pending_path(out)
+        config = store.stored_config(pending if store.is_store(pending) else out)
     else:
         config = preset("paper")
     return config.replace(**overrides) if overrides else config
 
 
+def _saved(out: Path) -> str | None:
+    """What an interrupted or failed generation left at ``out`` (None: nothing usable)."""
+    from . import store
+
+    pending = store.pending_path(out)
+    for path, replacement in ((pending, True), (out, False)):
+        try:
+            done = store.Store.open(path).status()[0]
+        except (OSError, ValueError):
+            continue
+        saved = f"{int(done.sum())}/{done.size} chunks"
+        if replacement:
+            return f"{out} still holds its previous dataset; its replacement has {saved} saved"
+        return f"{saved} of {out} are saved"
+    return None
+
+
 def _generate(args: argparse.Namespace) -> int:
     from . import store
     from .generation import generate
+    from .simulator import SimulationError
 
+    out = Path(args.out)
     config = config_from_args(args)
     executor, client, workers = None, None, args.workers
     if args.scheduler:
         from dask.distributed import Client
 
-        client = Client(args.scheduler)
+        try:
+            client = Client(args.scheduler)
+        except (OSError, ValueError, TimeoutError) as exc:
+            raise ValueError(f"--scheduler {args.scheduler}: cannot connect ({exc})") from None
         executor = client.get_executor()
         workers = workers or max(len(client.scheduler_info()["workers"]), 1)
     start = time.perf_counter()
     try:
         generate(
             config,
-            args.out,
+            out,
             workers=workers,
             threads=args.threads,
             executor=executor,
             resume=args.resume,
             overwrite=args.overwrite,
+            repair=args.repair,
         )
     except KeyboardInterrupt:
-        try:
-            done = store.done_mask(store.open_store(args.out)[0])
-            saved = f"{int(done.sum())}/{done.size} chunks are saved"
-        except (ValueError, FileNotFoundError):
-            saved = "nothing was saved"
+        saved = _saved(out)
+        if saved is None:
+            # Nothing (or only an unfinished skeleton) was created: the same command again.
+            argv = getattr(args, "argv", None)
+            again = "tactile-synth " + (shlex.join(argv) if argv else f"generate --out {out}")
+            advice = f"nothing was saved; start again with `{again}`"
+        else:
+            advice = f"{saved}; finish with `tactile-synth generate --resume --out {out}`"
+        print(f"tactile-synth generate: interrupted; {advice}", file=sys.stderr)
+        return 130
+    except SimulationError as exc:
+        saved = _saved(out) or "nothing was saved"
+        reason = " ".join(str(exc).split())
         print(
-            f"tactile-synth generate: interrupted; {saved}; finish with "
-            f"`tactile-synth generate --resume --out {args.out}`",
+            f"tactile-synth generate: error: the physics failed: {reason}; {saved}, so "
+            f"`tactile-synth generate --resume --out {out}` continues once the cause is fixed "
+            f"(the same trial fails the same way every time: to go on now, choose other "
+            f"--force/--speed values and pass --overwrite)",
             file=sys.stderr,
         )
-        return 130
+        return 1
     finally:
         if client is not None:
             client.close()
     elapsed = time.perf_counter() - start
-    _, meta = store.open_store(args.out)
-    cfg = meta["config"]
-    n, n_classes = int(meta["n_trials"]), len(cfg["shapes"]) * len(cfg["materials"])
+    st = store.Store.open(out)
+    cfg, meta = st.config, st.meta
+    n, n_classes = st.n_trials, len(cfg.class_indices)
     print(
         f"wrote {args.out}: {n} trials ({n_classes} classes x {len(meta['conditions'])} "
-        f"conditions x {cfg['trials_per_class']} trials) in {elapsed:.1f} s"
+        f"conditions x {cfg.trials_per_class} trials) in {elapsed:.1f} s"
     )
     return 0
 
 
 def _inspect(args: argparse.Namespace) -> int:
-    from .summary import summarize
+    from .summary import inspect_store
 
-    print(summarize(args.path))
-    return 0
+    text, problems = inspect_store(args.path)
+    print(text)
+    return 1 if problems else 0
 
 
 def _plot(args: argparse.Namespace) -> int:

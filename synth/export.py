@@ -17,6 +17,8 @@ EXPORT_FORMATS: tuple[str, ...] = ("npz", "csv")
 
 def _target(path: Path, out: str | Path | None, fmt: str, overwrite: bool) -> Path:
     target = Path(out) if out is not None else path.with_suffix(f".{fmt}")
+    if target.is_dir():
+        raise IsADirectoryError(f"--out {target} is a directory; give a file name")
     if target.exists() and not overwrite:
         raise FileExistsError(f"{target} exists; pass --overwrite to replace it or choose --out")
     target.parent.mkdir(parents=True, exist_ok=True)
@@ -37,8 +39,9 @@ def export(
     """
     path = Path(path)
     check_choice("format", fmt, EXPORT_FORMATS)
-    data = store.load_dataset(path)  # refuses incomplete stores
-    group, meta = store.open_store(path)
+    data = store.load_dataset(path)  # refuses incomplete or damaged stores
+    st = store.Store.open(path)
+    meta = st.meta
     target = _target(path, out, fmt, overwrite)
     tmp = target.with_name(target.name + ".partial")
     try:
@@ -50,8 +53,8 @@ def export(
                     shape=data.shape.astype(str),
                     material=data.material.astype(str),
                     label=data.label,
-                    condition=np.asarray(group["condition"][:]),
-                    trial_index=np.asarray(group["trial_index"][:]),
+                    condition=st.plan.condition,
+                    trial_index=st.plan.trial_index,
                     force_n=data.force_n,
                     speed_mm_s=data.speed_mm_s,
                     seed=data.seed,

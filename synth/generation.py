@@ -1,19 +1,28 @@
-"""Generate a dataset into a store: plan, schedule chunk tasks on an executor, resume.
+"""Generate a dataset into a store: check, plan, schedule chunk tasks on an executor,
+resume, repair, replace.
 
 One task = one storage chunk: it simulates its trials, writes its own chunk of the shared
 store and marks it done (see :mod:`synth.store`). Tasks depend only on the configuration and
-their chunk index, so the bytes are the same for any worker count, executor or resume
-history. Locally the tasks run in this process (two chunks at a time on threads, each
+their chunk index, so the bytes are the same for any worker count, executor, resume or
+repair history. Locally the tasks run in this process (two chunks at a time on threads, each
 rolling out on MuJoCo threads over all cores: one chunk's Python sensor chain and storage
 overlap the other's physics) or in a process pool; ``executor=`` accepts any
 ``concurrent.futures.Executor``, e.g. a Dask client's.
+
+A writer holds the store's lock (:func:`synth.store.locked`) from its first check to its
+last write. Every check runs before anything on disk changes. A new store is built beside
+its path (``.<name>.tactile-synth-new``) and renamed into place once its skeleton is
+complete (a fresh store) or once every chunk is done (``overwrite``), so an interrupted
+overwrite leaves the old dataset whole, and ``resume`` continues whichever is unfinished.
 """
 
 from __future__ import annotations
 
 import concurrent.futures as cf
+import dataclasses
 import multiprocessing
 import os
+import shutil
 import signal
 import sys
 import threading
@@ -26,7 +35,7 @@ import numpy as np
 
 from shapes.validation import check_int
 
-from . import store
+from . import atomic, store
 from .presets import GenerationConfig, plan, preset
 from .trial import TrialSpec
 
@@ -63,15 +72,17 @@ def run_chunk(
     synth: Mapping[str, Any],
     threads: int,
     simulator: Simulator | None = None,
+    store_id: str = "",
 ) -> tuple[int, int, float]:
     """Simulate and store one chunk; returns ``(chunk, trials, cpu seconds)``.
 
     Runs in whatever process or cluster worker the executor chose; needs only the shared
-    store path.
+    store path and the id of the store it was planned for.
     """
     cpu = time.process_time()
     signals = (simulator or mujoco_simulator)(specs, synth, threads)
-    store.write_chunk(path, chunk, np.ascontiguousarray(signals, dtype=np.float32))
+    signals = np.ascontiguousarray(signals, dtype=np.float32)
+    store.write_chunk(path, chunk, signals, specs, store_id)
     return chunk, len(specs), time.process_time() - cpu
 
 
@@ -120,30 +131,182 @@ def _ignore_sigint() -> None:  # pool workers: the parent decides when to stop
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def _resolve_config(config: GenerationConfig | str | None, out: Path, resume: bool):
+# -- checks ---------------------------------------------------------------------------------
+#: Disk bytes per trial assumed when checking free space: half the raw float32 signals
+#: (Blosc-zstd with byte shuffle stores noisy sensor signals in a third to a half).
+_DISK_FRACTION = 0.5
+#: Memory per trial of the plan while it is built and checked (six per-trial arrays plus
+#: temporaries).
+_PLAN_BYTES_PER_TRIAL = 128
+#: Rough resident memory of one spawned worker process (Python, numpy, MuJoCo, zarr).
+_WORKER_BYTES = 300e6
+#: More processes or rollout threads than this many per core only compete for the cores.
+_PER_CORE = 8
+
+
+def _fmt_bytes(n: float) -> str:
+    for unit in ("B", "kB", "MB", "GB", "TB", "PB"):
+        if n < 1000 or unit == "PB":
+            return f"{n:,.0f} {unit}" if unit == "B" else f"{n:,.1f} {unit}"
+        n /= 1000
+    return f"{n:,.1f} PB"  # pragma: no cover
+
+
+def available_memory() -> int:
+    """Bytes of memory a new allocation can get: Linux's MemAvailable (free memory plus
+    reclaimable caches), else the total physical memory."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return int(os.sysconf("SC_PHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
+
+
+def _existing_parent(path: Path) -> Path:
+    p = Path(os.path.abspath(path))
+    while not p.exists():
+        p = p.parent
+    return p if p.is_dir() else p.parent
+
+
+def check_resources(config: GenerationConfig, out: Path, *, workers: int, local: bool) -> None:
+    """Refuse a run the machine cannot hold, before anything starts, naming the argument and
+    the estimate: the store against the free disk space at ``out``, the plan and the
+    chunks in flight against the available memory."""
+    n = config.n_trials
+    disk = n * store.TRIAL_BYTES * _DISK_FRACTION
+    where = _existing_parent(out)
+    free = shutil.disk_usage(where).free
+    grid = (
+        f"{n:,} trials ({len(config.class_indices)} classes x {len(config.conditions)} "
+        f"conditions x {config.trials_per_class:,} trials per class)"
+    )
+    if disk > free:
+        raise ValueError(
+            f"--trials-per-class/--force/--speed: the grid has {grid}, about "
+            f"{_fmt_bytes(disk)} on disk, but {where} has {_fmt_bytes(free)} free; "
+            f"make the grid smaller or choose another --out"
+        )
+    in_flight = 2 * max(workers, 1)
+    memory = (
+        n * _PLAN_BYTES_PER_TRIAL
+        + in_flight * min(config.chunk_trials, n) * store.TRIAL_BYTES * 4
+        + (workers * _WORKER_BYTES if local and workers > 1 else 0)
+    )
+    have = available_memory()
+    if memory > have:
+        raise ValueError(
+            f"the run needs about {_fmt_bytes(memory)} of memory ({grid}, "
+            f"{in_flight} chunks of {config.chunk_trials} trials in flight, {workers} workers) "
+            f"but {_fmt_bytes(have)} is available; lower --trials-per-class, "
+            f"--chunk-trials or --workers"
+        )
+
+
+def check_parallelism(workers: int, threads: int | None, *, local: bool) -> None:
+    """Refuse more local processes or rollout threads than the cores can use."""
+    ncpu = os.cpu_count() or 1
+    if local and workers > _PER_CORE * ncpu:
+        raise ValueError(
+            f"--workers {workers}: this machine has {ncpu} cores; more than "
+            f"{_PER_CORE * ncpu} processes only compete for them"
+        )
+    if threads is not None and local and threads > _PER_CORE * ncpu:
+        raise ValueError(
+            f"--threads {threads}: this machine has {ncpu} cores; more than "
+            f"{_PER_CORE * ncpu} rollout threads only compete for them"
+        )
+
+
+def _resolve_config(config: GenerationConfig | str | None) -> GenerationConfig | None:
     if isinstance(config, str):
         return preset(config)
-    if config is None:
-        if resume and store.is_store(out):
-            return store.stored_config(out)
-        raise ValueError("give a preset name or a GenerationConfig (or resume an existing store)")
-    if not isinstance(config, GenerationConfig):
+    if config is not None and not isinstance(config, GenerationConfig):
         raise ValueError(f"config must be a preset name or GenerationConfig; got {config!r}")
     return config
 
 
-def _check_same(requested: GenerationConfig, stored: GenerationConfig, out: Path) -> None:
+def _check_same(requested: GenerationConfig, stored: GenerationConfig, where: str) -> None:
     want = requested.to_dict()
     have = stored.to_dict()
     if "synth" not in want:  # the simulator defaults were resolved when the store was made
         have.pop("synth", None)
     diff = [k for k in sorted(set(want) | set(have)) if want.get(k) != have.get(k)]
     if diff:
-        raise ValueError(
-            f"--resume: {out} was generated with a different configuration "
-            f"({', '.join(f'{k}={have.get(k)!r} there, {want.get(k)!r} here' for k in diff)}); "
-            f"resume without grid options, or use --overwrite"
+        raise store.DatasetError(
+            f"{where} was generated with a different configuration "
+            f"({', '.join(f'{k}={have.get(k)!r} there, {want.get(k)!r} here' for k in diff)})",
+            "resume without grid options, or use --overwrite",
         )
+
+
+def _has_meta(path: Path) -> bool:
+    """A store whose creation finished (it has its ``tactile_synth`` attributes)."""
+    try:
+        store._read_meta(path)
+    except (OSError, ValueError):
+        return False
+    return True
+
+
+def _complete(path: Path) -> bool:
+    try:
+        return bool(store.Store.open(path).status()[0].all())
+    except (OSError, ValueError):
+        return False
+
+
+@dataclasses.dataclass
+class Job:
+    """What a generation does: write ``todo`` chunks of ``config`` into the store at
+    ``target`` (id ``store_id``); ``replacing``: ``target`` is the pending replacement of
+    the dataset path, renamed into place when every chunk is done."""
+
+    config: GenerationConfig
+    target: Path
+    store_id: str
+    todo: list[int]
+    replacing: bool = False
+    clear: list[int] = dataclasses.field(default_factory=list)
+    rewrite: list[str] = dataclasses.field(default_factory=list)
+
+
+def _resume_job(config: GenerationConfig | None, out: Path, target: Path, *, repair: bool) -> Job:
+    replacing = target != out
+    where = f"the interrupted replacement of {out} ({target})" if replacing else str(out)
+    st = store.Store.open(target)
+    if config is not None:
+        _check_same(config, st.config, where)
+    done, problems = st.status()
+    plan_problems = st.check_plan()
+    _, chunk_problems = st.read_chunks(np.flatnonzero(done))
+    problems += plan_problems + chunk_problems
+    if problems and not repair:
+        raise store.DatasetDamaged(out, problems)
+    bad = sorted({p.chunk for p in problems if p.chunk is not None})
+    todo = sorted(set(np.flatnonzero(~done).tolist()) | set(bad))
+    if todo:
+        mismatch = store.writer_mismatch(st.meta)
+        if mismatch:
+            pv, mv = st.meta.get("package_version"), st.meta.get("mujoco_version")
+            raise store.DatasetError(
+                f"{where} was written by other versions ({'; '.join(mismatch)}), "
+                f"and chunks simulated here would not match its {int(done.sum())} finished ones",
+                f"finish it with the versions that wrote it (pip install tactile-synth=={pv} "
+                f"mujoco=={mv}), or start over with --overwrite",
+            )
+    return Job(
+        config=st.config,
+        target=target,
+        store_id=st.store_id or "",
+        todo=[int(k) for k in todo],
+        replacing=replacing,
+        clear=[int(k) for k in bad if done[k]],
+        rewrite=[p.what for p in plan_problems],
+    )
 
 
 def prepare(
@@ -152,35 +315,69 @@ def prepare(
     *,
     resume: bool = False,
     overwrite: bool = False,
-) -> GenerationConfig:
-    """Create (or check, for ``resume``) the store at ``out``; returns the resolved config.
-
-    Nothing on disk is touched before every check has passed.
+    repair: bool = False,
+    workers: int = 1,
+    local: bool = True,
+) -> Job:
+    """Check everything, then create (or, for ``resume``, check) the store; returns the
+    :class:`Job`. Call it holding the store's lock. Nothing on disk changes before every
+    check has passed, except finishing a replacement an earlier process left half-way.
     """
     out = Path(out)
     if resume and overwrite:
         raise ValueError("--resume and --overwrite exclude each other; pick one")
-    config = _resolve_config(config, out, resume)
+    if repair and overwrite:
+        raise ValueError(
+            "--repair fixes an existing dataset; use it with --resume (not --overwrite)"
+        )
+    resume = resume or repair
+    config = _resolve_config(config)
     if out.exists() and not out.is_dir():
         raise FileExistsError(f"--out {out} is a file; choose a directory path for the dataset")
+    pending = store.pending_path(out)
+    atomic.recover(out, complete=_complete(pending))
     occupied = out.exists() and any(out.iterdir())
-    if occupied and resume:
-        stored = store.stored_config(out)  # checks it is a compatible tactile-synth store
-        _check_same(config, stored, out)
-        store.remove_partial_files(out)
-        return stored
+    if resume and _has_meta(pending):
+        return _resume_job(config, out, pending, repair=repair)
+    if resume and occupied:
+        return _resume_job(config, out, out, repair=repair)
+    if resume and config is None:
+        raise store.DatasetError(
+            f"--resume: there is nothing to resume at {out}",
+            f"start it with `tactile-synth generate --out {out}` and the grid you want "
+            f"(e.g. --preset quick)",
+        )
+    if repair:
+        raise store.DatasetError(f"--repair: there is no dataset at {out} to repair")
+    if config is None:
+        raise ValueError("give a preset name or a GenerationConfig (or resume an existing store)")
     if occupied and not overwrite:
+        hint = (
+            f" (an interrupted --overwrite left a replacement at {pending}: --resume finishes it)"
+            if _has_meta(pending)
+            else ""
+        )
         raise FileExistsError(
-            f"--out {out} exists and is not empty; pass --resume to complete it, "
+            f"--out {out} exists and is not empty{hint}; pass --resume to complete it, "
             f"--overwrite to replace it, or choose another path"
+        )
+    if occupied and not store.is_store(out):
+        raise FileExistsError(
+            f"{out} exists and is not a tactile-synth dataset; refusing to overwrite it "
+            f"(choose another --out or delete it yourself)"
         )
     synth = dict(config.synth) if config.synth is not None else default_synth_config()
     validate_synth_config(synth)
     config = config.replace(synth=synth)
+    check_resources(config, out, workers=workers, local=local)
+    # Every check passed: build the new store's skeleton beside the path.
+    if pending.exists():
+        shutil.rmtree(pending)  # an unfinished replacement or skeleton of ours
+    store_id = store.create(pending, config)
     if occupied:
-        store.remove(out)  # refuses anything that is not a Zarr store
-    store.create(out, config)
-    return config
+        return Job(config, pending, store_id, list(range(config.n_chunks)), replacing=True)
+    os.rename(pending, out)  # out is absent or an empty directory
+    return Job(config, out, store_id, list(range(config.n_chunks)))
 
 
 def generate(
@@ -192,6 +389,7 @@ def generate(
     executor: cf.Executor | None = None,
     resume: bool = False,
     overwrite: bool = False,
+    repair: bool = False,
     progress: bool = True,
     simulator: Simulator | None = None,
 ) -> Path:
@@ -202,19 +400,66 @@ def generate(
     per task (default: all cores in this process, 1 in a pool or on an executor).
     executor: any ``concurrent.futures.Executor`` (e.g. a Dask client's
     ``get_executor()``); its workers must see ``out``. resume: complete an interrupted
-    store without recomputing its finished chunks. Returns ``out``.
+    store (or an interrupted overwrite) without recomputing its finished chunks; it refuses
+    a store with damaged chunks unless ``repair``, which re-simulates exactly those.
+    overwrite: build a new store beside ``out`` and put it in place when complete.
+    Returns ``out``. Raises :class:`synth.store.DatasetLocked` at once if another process
+    is writing ``out``.
     """
     out = Path(out)
     ncpu = os.cpu_count() or 1
     workers = 1 if workers is None else check_int("workers", workers, minimum=1)
     if threads is not None:
         check_int("threads", threads, minimum=1)
-    config = prepare(config, out, resume=resume, overwrite=overwrite)
-    group, _ = store.open_store(out)
-    todo = [int(k) for k in np.flatnonzero(~store.done_mask(group))]
+    local = executor is None
+    check_parallelism(workers, threads, local=local)
+    atomic.check_dir_path(out)
+    made = [p for p in Path(os.path.abspath(out)).parents if not p.exists()]  # deepest first
+    try:
+        with store.locked(out):
+            job = prepare(
+                config,
+                out,
+                resume=resume,
+                overwrite=overwrite,
+                repair=repair,
+                workers=workers,
+                local=local,
+            )
+            if job.todo:
+                store.remove_partial_files(job.target)
+            if job.clear:
+                store.clear_chunks(job.target, job.clear)
+            if job.rewrite:
+                store.rewrite_plan(job.target, job.rewrite)
+            _run(job, workers, threads, executor, ncpu, progress, simulator)
+            if job.replacing:
+                atomic.replace_dir(job.target, out)
+    except BaseException:
+        for p in made:  # directories made only for the lock file go again
+            try:
+                p.rmdir()
+            except OSError:
+                break
+        raise
+    return out
+
+
+def _run(
+    job: Job,
+    workers: int,
+    threads: int | None,
+    executor: cf.Executor | None,
+    ncpu: int,
+    progress: bool,
+    simulator: Simulator | None,
+) -> None:
+    config, todo = job.config, job.todo
     trials = plan(config)
     c = config.chunk_trials
     done_trials = len(trials) - sum(min(c, len(trials) - k * c) for k in todo)
+    if not todo:
+        return
 
     owned: cf.Executor | None = None
     if executor is None:
@@ -250,13 +495,15 @@ def generate(
     pending: set[cf.Future] = set()
     queue = iter(todo)
     stop = _StopRequests()
+    target = str(job.target)
     try:
         with stop:
             while True:
                 # Bounded submission keeps memory flat and lets Ctrl-C stop quickly.
                 for k in queue:
-                    args = (str(out), k, trials.specs(k * c, (k + 1) * c), config.synth, threads)
-                    pending.add(executor.submit(run_chunk, *args, simulator))
+                    specs = trials.specs(k * c, (k + 1) * c)
+                    args = (target, k, specs, config.synth, threads, simulator, job.store_id)
+                    pending.add(executor.submit(run_chunk, *args))
                     stop.check()
                     if len(pending) >= in_flight:
                         break
@@ -280,7 +527,6 @@ def generate(
         bar.close()
         if owned is not None:
             owned.shutdown(wait=True)
-    done = store.done_mask(store.open_store(out)[0])
+    done = store.Store.open(job.target).status()[0]
     if not done.all():  # pragma: no cover - every task either finished or raised
-        raise RuntimeError(f"{out}: {int((~done).sum())} chunks still missing after the run")
-    return out
+        raise RuntimeError(f"{job.target}: {int((~done).sum())} chunks still missing after the run")

@@ -27,17 +27,23 @@ def plot_examples(path: str | Path, out: str | Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    group, meta = store.open_store(path)
-    done = store.done_mask(group)
-    n, c = int(meta["n_trials"]), int(meta["chunk_trials"])
+    st = store.Store.open(path)
+    meta = st.meta
+    done, problems = st.status()
+    problems += st.check_plan()
+    if problems:
+        raise store.DatasetDamaged(st.path, problems)
+    n, c = st.n_trials, st.chunk_trials
     finished = np.zeros(n, dtype=bool)
     for k in np.flatnonzero(done):
-        finished[k * c : (k + 1) * c] = True
+        finished[st.rows(int(k))] = True
     if not finished.any():
         raise ValueError(f"{path} holds no finished trial yet; generate it first")
-    rows = example_rows(np.asarray(group["label"][:]), np.asarray(group["condition"][:]), finished)
-    signals = group["signals"]
-    examples = {cls: np.asarray(signals[i]) for cls, i in rows.items()}  # (4, T) each
+    rows = example_rows(st.plan.label, st.plan.condition, finished)
+    chunks, problems = st.read_chunks(sorted({i // c for i in rows.values()}))
+    if problems:
+        raise store.DatasetDamaged(st.path, problems)
+    examples = {cls: chunks[i // c][i % c] for cls, i in rows.items()}  # (4, T) each
     stack = np.stack(list(examples.values()))
     mean = stack.mean(axis=(0, 2))[:, None]
     std = stack.std(axis=(0, 2))[:, None] + 1e-12
@@ -62,7 +68,7 @@ def plot_examples(path: str | Path, out: str | Path) -> Path:
                 for j in range(len(channels)):
                     ax.plot(t, z[j] + offsets[j], lw=0.6, color=colors[j % len(colors)])
                 i = rows[cls]
-                cond = meta["conditions"][int(group["condition"][i])]
+                cond = meta["conditions"][int(st.plan.condition[i])]
                 ax.set_title(f"{shape}/{material}  ({cond}, row {i})", fontsize=7)
             ax.set_ylim(offsets[-1] - 3.0, offsets[0] + 3.0)
             ax.set_yticks(offsets, channels if col == 0 else [""] * len(channels), fontsize=7)

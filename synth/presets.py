@@ -24,6 +24,24 @@ from .trial import CLASS_NAMES, TrialSpec
 NOMINAL_FORCE_N: float = 1.0
 NOMINAL_SPEED_MM_S: float = 10.0
 
+#: Physical range of the finger's normal force. People exploring a surface with a
+#: fingertip press with about 0.5-0.6 N (Smith et al., Exp. Brain Res. 2002); 10 N is
+#: over ten times that, where a fingertip pad is pressed flat against the bone, and below
+#: 0.01 N (one gram-force) a finger barely rests on the surface.
+FORCE_RANGE_N: tuple[float, float] = (0.01, 10.0)
+#: Physical range of the sliding speed. People scan a surface at about 80 mm/s (same
+#: study); 500 mm/s is six times that. At 0.1 mm/s the 2 s window slides 0.2 mm, less
+#: than one fingerprint ridge, so nothing below it can be felt as sliding.
+SPEED_RANGE_MM_S: tuple[float, float] = (0.1, 500.0)
+#: Most trials one dataset may hold. A store takes ~10 kB per trial on disk and its plan
+#: ~40 bytes per trial in memory, and ``trial_index`` is int32: ten million trials is
+#: ~100 GB and days of simulation, far beyond any use of this benchmark (the paper's
+#: grid has 2,160). The machine's free disk space bounds it further (synth.generation).
+MAX_TRIALS: int = 10_000_000
+#: Most trials per chunk: one chunk is one task's signals in memory (32 kB per trial,
+#: 128 MB at this size) and one file on disk.
+MAX_CHUNK_TRIALS: int = 4096
+
 
 def _names(arg: str, values: object, allowed: Sequence[str]) -> tuple[str, ...]:
     """Validated names in the canonical order of ``allowed`` (so the trial order is fixed)."""
@@ -35,10 +53,19 @@ def _names(arg: str, values: object, allowed: Sequence[str]) -> tuple[str, ...]:
     return tuple(n for n in allowed if n in picked)
 
 
-def _numbers(arg: str, values: object, unit: str) -> tuple[float, ...]:
+def _numbers(arg: str, values: object, unit: str, bounds: tuple[float, float]) -> tuple[float, ...]:
+    lo, hi = bounds
     if isinstance(values, str) or not isinstance(values, Sequence) or not values:
-        raise ValueError(f"{arg} must be a non-empty list of numbers > 0 {unit}; got {values!r}")
+        raise ValueError(
+            f"{arg} must be a non-empty list of numbers in {lo:g}..{hi:g} {unit}; got {values!r}"
+        )
     out = tuple(check_positive(arg, v, unit=unit) for v in values)
+    for v in out:
+        if not lo <= v <= hi:
+            raise ValueError(
+                f"{arg} must lie in {lo:g}..{hi:g} {unit} (the physical range of a fingertip "
+                f"sliding over a surface); got {v:g}"
+            )
     if len(set(out)) != len(out):
         raise ValueError(f"{arg} lists a value twice; got {list(values)!r}")
     return out
@@ -77,18 +104,32 @@ class GenerationConfig:
         object.__setattr__(self, "shapes", _names("shapes", self.shapes, SHAPE_NAMES))
         object.__setattr__(self, "materials", _names("materials", self.materials, MATERIAL_NAMES))
         check_int("trials_per_class", self.trials_per_class, minimum=1)
-        object.__setattr__(self, "forces_n", _numbers("forces_n", self.forces_n, "N"))
-        object.__setattr__(self, "speeds_mm_s", _numbers("speeds_mm_s", self.speeds_mm_s, "mm/s"))
+        forces = _numbers("forces_n", self.forces_n, "N", FORCE_RANGE_N)
+        speeds = _numbers("speeds_mm_s", self.speeds_mm_s, "mm/s", SPEED_RANGE_MM_S)
+        object.__setattr__(self, "forces_n", forces)
+        object.__setattr__(self, "speeds_mm_s", speeds)
         if not isinstance(self.include_nominal, bool):
             raise ValueError(f"include_nominal must be true or false; got {self.include_nominal!r}")
         check_int("seed", self.seed, minimum=0)
         check_int("chunk_trials", self.chunk_trials, minimum=1)
+        if self.chunk_trials > MAX_CHUNK_TRIALS:
+            raise ValueError(
+                f"chunk_trials must be at most {MAX_CHUNK_TRIALS} (one chunk's signals are held "
+                f"in memory: 32 kB per trial); got {self.chunk_trials}"
+            )
         if self.synth is not None and not isinstance(self.synth, Mapping):
             raise ValueError(f"synth must be a table of simulator settings; got {self.synth!r}")
         if not self.conditions:
             raise ValueError(
                 "the force/speed grid is empty: it holds only the nominal condition and "
                 "include_nominal is false; add forces or speeds"
+            )
+        if self.n_trials > MAX_TRIALS:
+            raise ValueError(
+                f"trials_per_class={self.trials_per_class} gives {self.n_trials:,} trials "
+                f"({len(self.class_indices)} classes x {len(self.conditions)} conditions x "
+                f"{self.trials_per_class:,}), {self.n_trials * 32e3 / 1e12:,.1f} TB of signals; "
+                f"a dataset holds at most {MAX_TRIALS:,} trials: lower trials_per_class"
             )
 
     # -- the grid ------------------------------------------------------------------------
@@ -149,7 +190,7 @@ class GenerationConfig:
         return cls(**kwargs)
 
 
-#: The named grids of issue #4. ``perturbation``: 3 forces x 3 speeds around nominal,
+#: The named grids. ``perturbation``: 3 forces x 3 speeds around nominal,
 #: nominal excluded (8 conditions), 10 trials per class per condition.
 PRESETS: dict[str, GenerationConfig] = {
     "quick": GenerationConfig(preset="quick", trials_per_class=4),
@@ -193,6 +234,74 @@ def trial_seed(seed: int, class_idx: int, force_n: float, speed_mm_s: float, tri
     return int(np.random.SeedSequence(words).generate_state(1, dtype=np.uint32)[0])
 
 
+# numpy's SeedSequence constants (O'Neill's seed_seq_fe with a pool of 4 words).
+_INIT_A, _MULT_A = 0x43B0D7E5, 0x931E8875
+_INIT_B, _MULT_B = 0x8B51F9DD, 0x58F38DED
+_MIX_L, _MIX_R = 0xCA01F9DD, 0x4973F715
+_POOL = 4
+_M32 = 0xFFFFFFFF
+
+
+def _seed_states(words: np.ndarray) -> np.ndarray:
+    """``SeedSequence(row).generate_state(1, uint32)[0]`` for every row of ``words``
+    (uint32 ``(n, w)``, w >= 4, each entry one 32-bit entropy word), all rows at once.
+
+    The same arithmetic as numpy's SeedSequence, vectorised over rows: the per-trial
+    Python call costs ~80 us, which made regenerating a plan (done on every load, to check
+    the stored per-trial arrays) cost a sixth of reading the signals.
+    """
+    hash_const = _INIT_A
+
+    def hashmix(value: np.ndarray) -> np.ndarray:
+        nonlocal hash_const
+        value = value ^ np.uint32(hash_const)
+        hash_const = (hash_const * _MULT_A) & _M32
+        value = value * np.uint32(hash_const)
+        return value ^ (value >> np.uint32(16))
+
+    def mix(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        r = np.uint32(_MIX_L) * x - np.uint32(_MIX_R) * y
+        return r ^ (r >> np.uint32(16))
+
+    words = np.asarray(words, dtype=np.uint32)
+    pool = [hashmix(words[:, i]) for i in range(_POOL)]
+    for src in range(_POOL):
+        for dst in range(_POOL):
+            if src != dst:
+                pool[dst] = mix(pool[dst], hashmix(pool[src]))
+    for src in range(_POOL, words.shape[1]):
+        for dst in range(_POOL):
+            pool[dst] = mix(pool[dst], hashmix(words[:, src]))
+    out = pool[0] ^ np.uint32(_INIT_B)
+    out = out * np.uint32((_INIT_B * _MULT_B) & _M32)
+    return out ^ (out >> np.uint32(16))
+
+
+def trial_seeds(
+    seed: int,
+    class_idx: np.ndarray,
+    force_n: np.ndarray,
+    speed_mm_s: np.ndarray,
+    trial: np.ndarray,
+) -> np.ndarray:
+    """:func:`trial_seed` of many trials at once (int64 ``(n,)``, values in uint32)."""
+    cols = [
+        np.asarray(class_idx, dtype=np.int64),
+        np.rint(np.asarray(force_n, dtype=np.float64) * 1e6),
+        np.rint(np.asarray(speed_mm_s, dtype=np.float64) * 1e3),
+        np.asarray(trial, dtype=np.int64),
+    ]
+    n = cols[0].size
+    in_range = [c.size == 0 or (c.min() >= 0 and c.max() <= _M32) for c in cols]
+    if not (0 <= seed <= _M32 and all(in_range)):
+        # A value of 2**32 or more enters SeedSequence as several words: the scalar path.
+        rows = zip(class_idx, force_n, speed_mm_s, trial, strict=True)
+        seeds = [trial_seed(seed, int(c), float(f), float(s), int(k)) for c, f, s, k in rows]
+        return np.array(seeds, dtype=np.int64).reshape(n)
+    words = np.stack([np.full(n, seed, dtype=np.uint32), *(c.astype(np.uint32) for c in cols)], 1)
+    return _seed_states(words).astype(np.int64)
+
+
 @dataclass(frozen=True)
 class TrialPlan:
     """Per-trial arrays in store order (condition, class, trial index); each ``(n,)``."""
@@ -224,18 +333,21 @@ class TrialPlan:
 
 
 def plan(config: GenerationConfig) -> TrialPlan:
-    rows = [
-        (cls, c, k, f, s, trial_seed(config.seed, cls, f, s, k))
-        for c, (f, s) in enumerate(config.conditions)
-        for cls in config.class_indices
-        for k in range(config.trials_per_class)
-    ]
-    cols = list(zip(*rows, strict=True))
+    """The trials of ``config`` in store order: condition, then class, then trial index."""
+    conditions = np.asarray(config.conditions, dtype=np.float64).reshape(-1, 2)
+    n_cond, classes = len(conditions), np.asarray(config.class_indices, dtype=np.int16)
+    k = config.trials_per_class
+    shape = (n_cond, classes.size, k)
+    cond = np.broadcast_to(np.arange(n_cond, dtype=np.int16)[:, None, None], shape).ravel()
+    label = np.broadcast_to(classes[None, :, None], shape).ravel()
+    trial = np.broadcast_to(np.arange(k, dtype=np.int32)[None, None, :], shape).ravel()
+    force = conditions[cond, 0]
+    speed = conditions[cond, 1]
     return TrialPlan(
-        label=np.array(cols[0], dtype=np.int16),
-        condition=np.array(cols[1], dtype=np.int16),
-        trial_index=np.array(cols[2], dtype=np.int32),
-        force_n=np.array(cols[3], dtype=np.float64),
-        speed_mm_s=np.array(cols[4], dtype=np.float64),
-        seed=np.array(cols[5], dtype=np.int64),
+        label=label.copy(),
+        condition=cond.copy(),
+        trial_index=trial.copy(),
+        force_n=force,
+        speed_mm_s=speed,
+        seed=trial_seeds(config.seed, label, force, speed, trial),
     )

@@ -1,4 +1,4 @@
-"""The on-disk dataset: one Zarr v3 store per dataset.
+"""The on-disk dataset: one Zarr v3 store per dataset, checked on every read.
 
 Layout (a plain ``zarr.open_group(path)`` reads all of it)::
 
@@ -9,38 +9,121 @@ Layout (a plain ``zarr.open_group(path)`` reads all of it)::
     force_n      float64 (n,)
     speed_mm_s   float64 (n,)
     seed         int64   (n,)        the trial's own seed: simulate(..., seed=seed[i]) redoes row i
+    checksum     uint32  (n_chunks,) CRC-32C of chunk k's signals and its trials' plan rows
     done         uint8   (n_chunks,) chunk k of ``signals`` is complete iff done[k] == 1
 
-Trial order is canonical (condition, class, trial index), fixed by the configuration, so
-chunk k always holds the same trials. Every per-trial array except ``signals`` is written
-when the store is created; the group attribute ``tactile_synth`` (format version,
-configuration, versions, creation time) is written last and marks a usable store.
-A task writes its ``signals`` chunk (zarr's LocalStore writes each chunk file to a temporary
-name and renames it) and only then sets ``done[k]``, one file per flag, so no two tasks
-touch the same file and a torn or unfinished chunk is never marked done.
+Every array ends each chunk file with a CRC-32C of the file (zarr's ``crc32c`` codec),
+so any zarr reader detects a truncated or bit-flipped file. Trial order is canonical
+(condition, class, trial index), fixed by the configuration, so chunk k always holds the
+same trials; the per-trial arrays are the plan of that configuration, written when the
+store is created. The group attribute ``tactile_synth`` (format version, configuration,
+versions, store id, creation time) is written last and marks a usable store.
+
+A chunk task writes its ``signals`` chunk (zarr writes each chunk file to a temporary name
+and renames it), flushes it to the disk, writes ``checksum[k]`` and only then ``done[k]``,
+one file per flag, so no two tasks touch the same file and a reader never takes a torn or
+unfinished chunk for data. ``checksum[k]`` covers the chunk's signals together with the
+label, force, speed and seed of its trials, so a chunk file that is missing, swapped with
+another chunk's, copied from another dataset or edited fails it; every reader here
+(:func:`load_dataset`, ``inspect``, ``plot``, ``export``, the benchmark) checks it, and
+checks the per-trial arrays against the plan regenerated from the stored configuration.
+Problems raise :class:`DatasetDamaged`, naming the chunk, its file and the repair command.
 """
 
 from __future__ import annotations
 
 import datetime as _dt
 import importlib.metadata
+import json
 import os
-import shutil
+import uuid
+from collections.abc import Iterable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from . import atomic
 from .dataset import Dataset
-from .presets import GenerationConfig, condition_name, plan
-from .trial import CHANNELS, CLASS_NAMES, N_SAMPLES, SAMPLE_RATE_HZ
+from .presets import GenerationConfig, TrialPlan, condition_name, plan
+from .trial import CHANNELS, CLASS_NAMES, N_SAMPLES, SAMPLE_RATE_HZ, TrialSpec, class_index
 
 #: Bumped whenever the layout above changes incompatibly.
-FORMAT_VERSION: int = 1
+FORMAT_VERSION: int = 2
 ATTR_KEY = "tactile_synth"
-_PLAN_ARRAYS = ("label", "condition", "trial_index", "force_n", "speed_mm_s", "seed")
+_PLAN_DTYPES = {
+    "label": "int16",
+    "condition": "int16",
+    "trial_index": "int32",
+    "force_n": "float64",
+    "speed_mm_s": "float64",
+    "seed": "int64",
+}
+_PLAN_ARRAYS = tuple(_PLAN_DTYPES)
+#: Uncompressed bytes of one trial's signals (float32, 4 channels).
+TRIAL_BYTES: int = 4 * len(CHANNELS) * N_SAMPLES
 
 
+# -- errors -------------------------------------------------------------------------------
+class DatasetError(ValueError):
+    """A dataset problem the user must act on. ``problem`` says what is wrong, ``fix``
+    what to run (as ``tactile-synth generate`` options); ``str()`` is both on one line."""
+
+    def __init__(self, problem: str, fix: str = "") -> None:
+        self.problem = problem
+        self.fix = fix
+        super().__init__(f"{problem}; {fix}" if fix else problem)
+
+
+class DatasetLocked(DatasetError):
+    """Another process is writing the dataset (``pid``: its process id, if known)."""
+
+    def __init__(self, path: Path, pid: int | None) -> None:
+        self.pid = pid
+        who = f"process {pid}" if pid is not None else "another process"
+        super().__init__(
+            f"dataset {path} is being written by {who} (tactile-synth generate)",
+            f"wait for it to finish or stop it{f' (kill {pid})' if pid else ''}, then retry",
+        )
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One damaged part of a store: ``what`` (e.g. ``"chunk 3"``, ``"label"``), the
+    ``file`` holding it, ``why`` it fails, and for a chunk its index and trials."""
+
+    what: str
+    file: Path
+    why: str
+    chunk: int | None = None
+    trials: str = ""
+
+    def __str__(self) -> str:
+        where = f"{self.trials}, file {self.file}" if self.trials else f"file {self.file}"
+        return f"{self.what} ({where}) {self.why}"
+
+
+class DatasetDamaged(DatasetError):
+    """Stored data fail their checks; ``problems`` lists every part that does."""
+
+    def __init__(self, path: Path, problems: Sequence[Problem]) -> None:
+        self.problems = list(problems)
+        shown = "; ".join(str(p) for p in self.problems[:3])
+        more = len(self.problems) - 3
+        super().__init__(
+            f"dataset {path} is damaged: {shown}" + (f"; and {more} more" if more > 0 else ""),
+            f"re-simulate the damaged parts with `{repair_command(path)}`",
+        )
+
+
+def repair_command(path: str | Path) -> str:
+    return f"tactile-synth generate --resume --repair --out {path}"
+
+
+# -- versions -----------------------------------------------------------------------------
 def _package_version() -> str:
     try:
         return importlib.metadata.version("tactile-synth")
@@ -48,7 +131,8 @@ def _package_version() -> str:
         return "unknown"
 
 
-def _versions() -> dict[str, str]:
+def versions() -> dict[str, str]:
+    """The versions a store records (a store's data depend on the first two)."""
     import mujoco
     import zarr
 
@@ -60,16 +144,83 @@ def _versions() -> dict[str, str]:
     }
 
 
+def writer_mismatch(meta: dict[str, Any]) -> list[str]:
+    """How the versions that wrote a store differ from this installation's (tactile-synth
+    and MuJoCo decide the bytes of every chunk); empty if they agree."""
+    now = versions()
+    out = []
+    for key, name in (("package_version", "tactile-synth"), ("mujoco_version", "MuJoCo")):
+        if meta.get(key) != now[key]:
+            out.append(f"{name} {meta.get(key)} there, {now[key]} here")
+    return out
+
+
+# -- paths and locking --------------------------------------------------------------------
 def is_store(path: Path) -> bool:
     """True if ``path`` is a Zarr group directory (a tactile-synth store or a half-created one)."""
-    return (path / "zarr.json").is_file()
+    return (Path(path) / "zarr.json").is_file()
 
 
-def create(path: str | Path, config: GenerationConfig) -> None:
+def pending_path(path: str | Path) -> Path:
+    """Where a replacement of ``path`` is built (``--overwrite``) before it is renamed into
+    place: a hidden sibling, ``.<name>.tactile-synth-new``."""
+    return atomic.sibling(path, "new")
+
+
+@contextmanager
+def locked(path: str | Path) -> Iterator[None]:
+    """Hold the writer lock of the dataset ``path`` (covers its pending replacement too);
+    :class:`DatasetLocked` at once if another process holds it."""
+    lock = atomic.PathLock(path)
+    try:
+        lock.acquire()
+    except atomic.LockedError as exc:
+        raise DatasetLocked(Path(path), exc.pid) from None
+    try:
+        yield
+    finally:
+        lock.release()
+
+
+def chunk_file(path: Path, name: str, chunk: int) -> Path:
+    """The file holding chunk ``chunk`` of array ``name`` (zarr v3 default chunk keys)."""
+    if name == "signals":
+        return path / name / "c" / str(chunk) / "0" / "0"
+    return path / name / "c" / str(chunk)
+
+
+# -- checksums ----------------------------------------------------------------------------
+def _readonly(a: np.ndarray, dtype: str) -> np.ndarray:
+    out = np.ascontiguousarray(a, dtype=dtype)
+    if out is a:
+        out = out.view()
+    out.flags.writeable = False  # google_crc32c takes read-only buffers without a copy
+    return out
+
+
+def chunk_checksum(
+    signals: np.ndarray,
+    label: np.ndarray,
+    force_n: np.ndarray,
+    speed_mm_s: np.ndarray,
+    seed: np.ndarray,
+) -> int:
+    """CRC-32C of a chunk's signals (float32 little-endian, C order) followed by its trials'
+    label (int16), force, speed (float64) and seed (int64): binds data to their trials."""
+    import google_crc32c
+
+    crc = google_crc32c.value(_readonly(signals, "<f4"))
+    for values, dtype in ((label, "<i2"), (force_n, "<f8"), (speed_mm_s, "<f8"), (seed, "<i8")):
+        crc = google_crc32c.extend(crc, _readonly(values, dtype))
+    return int(crc)
+
+
+# -- creating -----------------------------------------------------------------------------
+def create(path: str | Path, config: GenerationConfig) -> str:
     """Create the store for ``config`` (``config.synth`` must be resolved) at an absent or
-    empty ``path``; no signal is written yet."""
+    empty ``path``; no signal is written yet. Returns the new store's id."""
     import zarr
-    from zarr.codecs import BloscCodec
+    from zarr.codecs import BloscCodec, Crc32cCodec
 
     path = Path(path)
     if config.synth is None:
@@ -82,7 +233,7 @@ def create(path: str | Path, config: GenerationConfig) -> None:
         shape=(n, len(CHANNELS), N_SAMPLES),
         chunks=(c, len(CHANNELS), N_SAMPLES),
         dtype="float32",
-        compressors=BloscCodec(cname="zstd", clevel=3, shuffle="shuffle"),
+        compressors=[BloscCodec(cname="zstd", clevel=3, shuffle="shuffle"), Crc32cCodec()],
         fill_value=np.float32(0),
         dimension_names=("trial", "channel", "time"),
     )
@@ -93,21 +244,26 @@ def create(path: str | Path, config: GenerationConfig) -> None:
             shape=values.shape,
             chunks=(max(n, 1),),
             dtype=values.dtype,
+            compressors=[Crc32cCodec()],
             dimension_names=("trial",),
         )
         arr[:] = values
-    group.create_array(
-        "done",
-        shape=(config.n_chunks,),
-        chunks=(1,),
-        dtype="uint8",
-        fill_value=0,
-        dimension_names=("chunk",),
-    )
+    for name, dtype in (("checksum", "uint32"), ("done", "uint8")):
+        group.create_array(
+            name,
+            shape=(config.n_chunks,),
+            chunks=(1,),
+            dtype=dtype,
+            compressors=[Crc32cCodec()],
+            fill_value=0,
+            dimension_names=("chunk",),
+        )
+    store_id = uuid.uuid4().hex
     # Written last: a store without it is a creation that did not finish.
     group.attrs[ATTR_KEY] = {
         "format_version": FORMAT_VERSION,
-        **_versions(),
+        **versions(),
+        "store_id": store_id,
         "created_at": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         "config": config.to_dict(),
         "classes": list(CLASS_NAMES),
@@ -118,77 +274,401 @@ def create(path: str | Path, config: GenerationConfig) -> None:
         "chunk_trials": c,
         "n_chunks": config.n_chunks,
     }
+    return store_id
 
 
-def open_store(path: str | Path, mode: str = "r") -> tuple[Any, dict[str, Any]]:
-    """``(zarr group, provenance attrs)`` of a tactile-synth store; ``ValueError`` naming
-    the fix when ``path`` is not one or has an incompatible format version."""
-    import zarr
+# -- opening ------------------------------------------------------------------------------
+def _missing_message(path: Path) -> str:
+    pending, old = pending_path(path), atomic.sibling(path, "old")
+    if old.exists():
+        return (
+            f"dataset {path} is being replaced right now, or its replacement was interrupted "
+            f"(the previous version is at {old}); retry in a moment, or complete it with "
+            f"`tactile-synth generate --resume --out {path}`"
+        )
+    if is_store(pending):
+        return (
+            f"dataset {path} does not exist, but an interrupted generation left its "
+            f"replacement at {pending}; finish it with "
+            f"`tactile-synth generate --resume --out {path}`"
+        )
+    return f"dataset {path} does not exist; create it with `tactile-synth generate --out {path}`"
 
-    path = Path(path)
+
+def _read_meta(path: Path) -> dict[str, Any]:
+    """The ``tactile_synth`` attributes, read as JSON ourselves so a damaged metadata file
+    is named (zarr's own error names no file)."""
     if not path.exists():
-        raise FileNotFoundError(
-            f"dataset {path} does not exist; create it with `tactile-synth generate --out {path}`"
+        raise FileNotFoundError(_missing_message(path))
+    if not path.is_dir():
+        raise NotADirectoryError(f"{path} is a file, not a dataset (a Zarr store directory)")
+    meta_file = path / "zarr.json"
+    if not meta_file.is_file():
+        raise DatasetError(
+            f"{path} is not a tactile-synth dataset (no zarr.json)",
+            "check the path, or create it with `tactile-synth generate --out PATH`",
         )
-    if not is_store(path):
-        raise ValueError(f"{path} is not a tactile-synth dataset (no zarr.json)")
-    group = zarr.open_group(path, mode=mode, zarr_format=3)
-    meta = group.attrs.get(ATTR_KEY)
+    try:
+        doc = json.loads(meta_file.read_bytes())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise DatasetError(
+            f"{meta_file} is damaged (not valid JSON: {exc}), so the dataset's configuration "
+            f"is lost",
+            "regenerate it with your original `tactile-synth generate` command plus --overwrite",
+        ) from None
+    meta = doc.get("attributes", {}).get(ATTR_KEY) if isinstance(doc, dict) else None
     if not isinstance(meta, dict):
-        raise ValueError(
+        raise DatasetError(
             f"{path} is not a complete tactile-synth dataset (its creation was interrupted "
-            f"or it was made by another tool); regenerate it with --overwrite"
+            f"or it was made by another tool)",
+            "regenerate it with your original `tactile-synth generate` command plus --overwrite",
         )
+    return meta
+
+
+def _check_format(path: Path, meta: dict[str, Any]) -> None:
     version = meta.get("format_version")
     if version != FORMAT_VERSION:
-        raise ValueError(
-            f"{path} has dataset format version {version!r} but this tactile-synth "
-            f"({_package_version()}) reads version {FORMAT_VERSION}; use the tactile-synth "
-            f"version that wrote it ({meta.get('package_version', 'unknown')}) or regenerate it"
+        raise DatasetError(
+            f"{path} has dataset format version {version!r} (written by tactile-synth "
+            f"{meta.get('package_version', 'unknown')}) but this tactile-synth "
+            f"({_package_version()}) reads version {FORMAT_VERSION}",
+            f"regenerate it with `tactile-synth generate --from-config {path} --out {path} "
+            f"--overwrite`, or read it with the tactile-synth version that wrote it",
         )
-    return group, meta
 
 
 def stored_config(path: str | Path) -> GenerationConfig:
-    """The configuration saved in a store (regenerates it bit for bit)."""
-    _, meta = open_store(path)
-    return GenerationConfig.from_dict(meta["config"])
+    """The configuration saved in a store (regenerates it bit for bit). Read from any
+    format version, so ``--from-config`` can regenerate an old dataset in the new format."""
+    path = Path(path)
+    meta = _read_meta(path)
+    return _config_of(path, meta)
 
 
-def done_mask(group: Any) -> np.ndarray:
-    """bool ``(n_chunks,)``: which chunks are complete."""
-    return np.asarray(group["done"][:]).astype(bool)
+def _config_of(path: Path, meta: dict[str, Any]) -> GenerationConfig:
+    try:
+        return GenerationConfig.from_dict(meta["config"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise DatasetError(
+            f"{path / 'zarr.json'} holds no valid generation configuration ({exc})",
+            "regenerate it with your original `tactile-synth generate` command plus --overwrite",
+        ) from None
 
 
-def write_chunk(path: str | Path, chunk: int, signals: np.ndarray) -> None:
-    """Write chunk ``chunk``'s signals ``(b, 4, T)`` and then mark it done."""
+@dataclass
+class Store:
+    """An opened tactile-synth store: its metadata, configuration and arrays, with checked
+    reads. ``Store.open(path)`` raises one-line errors naming the file at fault."""
+
+    path: Path
+    group: Any
+    meta: dict[str, Any]
+    config: GenerationConfig
+    arrays: dict[str, Any] = field(default_factory=dict)
+    _checksums: tuple[np.ndarray, dict[int, str]] | None = field(default=None, repr=False)
+
+    @classmethod
+    def open(cls, path: str | Path, mode: str = "r") -> Store:
+        import zarr
+
+        path = Path(path)
+        meta = _read_meta(path)
+        _check_format(path, meta)
+        config = _config_of(path, meta)
+        try:
+            group = zarr.open_group(path, mode=mode, zarr_format=3)
+        except (ValueError, KeyError, TypeError) as exc:  # pragma: no cover - read above
+            raise DatasetError(f"{path / 'zarr.json'} cannot be opened by zarr ({exc})") from None
+        store = cls(path=path, group=group, meta=meta, config=config)
+        store._open_arrays()
+        return store
+
+    def _open_arrays(self) -> None:
+        n, c, k = self.n_trials, self.chunk_trials, self.n_chunks
+        expected = {
+            "signals": ((n, len(CHANNELS), N_SAMPLES), (c, len(CHANNELS), N_SAMPLES), "float32"),
+            "checksum": ((k,), (1,), "uint32"),
+            "done": ((k,), (1,), "uint8"),
+        }
+        for name, dtype in _PLAN_DTYPES.items():
+            expected[name] = ((n,), (max(n, 1),), dtype)
+        for name, (shape, chunks, dtype) in expected.items():
+            meta_file = self.path / name / "zarr.json"
+            regenerate = (
+                f"regenerate the dataset with `tactile-synth generate --from-config "
+                f"{self.path} --out {self.path} --overwrite`"
+            )
+            try:
+                arr = self.group[name]
+            except Exception as exc:  # zarr raises JSON, key and type errors on bad metadata
+                if not meta_file.exists():
+                    raise DatasetError(
+                        f"dataset {self.path} has no {name} array ({meta_file} is missing)",
+                        regenerate,
+                    ) from None
+                raise DatasetError(
+                    f"{meta_file} is damaged ({type(exc).__name__}: {exc})", regenerate
+                ) from None
+            if (arr.shape, arr.chunks, str(arr.dtype)) != (shape, chunks, dtype):
+                raise DatasetError(
+                    f"{meta_file} describes {arr.dtype} {arr.shape} in chunks {arr.chunks}, "
+                    f"but the dataset's configuration needs {dtype} {shape} in chunks {chunks}",
+                    regenerate,
+                )
+            self.arrays[name] = arr
+
+    # -- geometry ------------------------------------------------------------------------
+    @property
+    def n_trials(self) -> int:
+        return self.config.n_trials
+
+    @property
+    def chunk_trials(self) -> int:
+        return self.config.chunk_trials
+
+    @property
+    def n_chunks(self) -> int:
+        return self.config.n_chunks
+
+    @property
+    def store_id(self) -> str | None:
+        return self.meta.get("store_id")
+
+    def rows(self, chunk: int) -> slice:
+        c = self.chunk_trials
+        return slice(chunk * c, min((chunk + 1) * c, self.n_trials))
+
+    def file(self, name: str, chunk: int = 0) -> Path:
+        return chunk_file(self.path, name, chunk)
+
+    @cached_property
+    def plan(self) -> TrialPlan:
+        """The trials the stored configuration defines (regenerated, never read)."""
+        return plan(self.config)
+
+    # -- flags ---------------------------------------------------------------------------
+    def _flags(self, name: str) -> tuple[np.ndarray, dict[int, str]]:
+        """An array of per-chunk values and ``{chunk: error}`` for files that fail to decode."""
+        arr = self.arrays[name]
+        try:
+            return np.asarray(arr[:]), {}
+        except Exception:  # one damaged file fails the whole read: find which
+            values = np.zeros(arr.shape, dtype=arr.dtype)
+            bad: dict[int, str] = {}
+            for k in range(arr.shape[0]):
+                try:
+                    values[k] = arr[k]
+                except Exception as exc:
+                    bad[k] = _decode_error(exc)
+            return values, bad
+
+    def status(self) -> tuple[np.ndarray, list[Problem]]:
+        """``(done, problems)``: bool ``(n_chunks,)`` of chunks marked complete, and the
+        chunks whose done-flag file is damaged (they count as not done)."""
+        done, bad_done = self._flags("done")
+        mask = done == 1
+        problems = [
+            Problem(f"chunk {k}'s done flag", self.file("done", k), why, chunk=k)
+            for k, why in bad_done.items()
+        ]
+        return mask, problems
+
+    def checksums(self) -> tuple[np.ndarray, dict[int, str]]:
+        """Recorded per-chunk checksums and ``{chunk: error}`` for damaged checksum files
+        (read once per opened store)."""
+        if self._checksums is None:
+            self._checksums = self._flags("checksum")
+        return self._checksums
+
+    # -- verified reads ------------------------------------------------------------------
+    def expected_checksum(self, chunk: int, signals: np.ndarray) -> int:
+        r, p = self.rows(chunk), self.plan
+        return chunk_checksum(signals, p.label[r], p.force_n[r], p.speed_mm_s[r], p.seed[r])
+
+    def _chunk_problem(self, chunk: int, why: str) -> Problem:
+        r = self.rows(chunk)
+        return Problem(
+            f"chunk {chunk}",
+            self.file("signals", chunk),
+            why,
+            chunk=chunk,
+            trials=f"trials {r.start}-{r.stop - 1}",
+        )
+
+    def _check_chunk(self, chunk: int, data: np.ndarray, recorded: int) -> Problem | None:
+        if self.expected_checksum(chunk, data) == recorded:
+            return None
+        if not self.file("signals", chunk).is_file():
+            return self._chunk_problem(chunk, "is missing")
+        if not self.file("checksum", chunk).is_file():
+            return self._chunk_problem(chunk, f"has no checksum ({self.file('checksum', chunk)})")
+        return self._chunk_problem(
+            chunk,
+            "fails its checksum (edited, or swapped with another chunk or dataset)",
+        )
+
+    def read_chunks(self, chunks: Iterable[int]) -> tuple[dict[int, np.ndarray], list[Problem]]:
+        """Signals of ``chunks`` (``{chunk: (b, 4, T)}``), each checked against its recorded
+        checksum and its trials' plan; chunks that fail are left out and listed."""
+        out, problems, _ = self._read_chunks(chunks)
+        return out, problems
+
+    def _read_chunks(
+        self, chunks: Iterable[int]
+    ) -> tuple[dict[int, np.ndarray], list[Problem], np.ndarray | None]:
+        chunks = [int(k) for k in chunks]
+        recorded, bad_sums = self.checksums()
+        out: dict[int, np.ndarray] = {}
+        problems: list[Problem] = []
+        signals = self.arrays["signals"]
+        whole = None
+        if chunks and chunks == list(range(self.n_chunks)):
+            try:
+                whole = np.asarray(signals[:])  # one read: zarr decodes chunks in parallel
+            except Exception:
+                whole = None  # a damaged file: fall back to chunk by chunk to name it
+        for k in chunks:
+            if k in bad_sums:
+                problems.append(
+                    self._chunk_problem(k, f"has a damaged checksum file: {bad_sums[k]}")
+                )
+                continue
+            if whole is not None:
+                data = whole[self.rows(k)]
+            else:
+                try:
+                    data = np.asarray(signals[self.rows(k)])
+                except Exception as exc:
+                    problems.append(self._chunk_problem(k, f"cannot be read: {_decode_error(exc)}"))
+                    continue
+            problem = self._check_chunk(k, data, int(recorded[k]))
+            if problem is None:
+                out[k] = data
+            else:
+                problems.append(problem)
+        return out, problems, whole
+
+    def check_plan(self) -> list[Problem]:
+        """The stored per-trial arrays that differ from the plan of the stored configuration."""
+        problems = []
+        for name in _PLAN_ARRAYS:
+            file = self.file(name)
+            try:
+                stored = np.asarray(self.arrays[name][:])
+            except Exception as exc:
+                problems.append(Problem(name, file, f"cannot be read: {_decode_error(exc)}"))
+                continue
+            expected = getattr(self.plan, name)
+            if not np.array_equal(stored, expected):
+                if not file.is_file():
+                    problems.append(Problem(name, file, "is missing"))
+                    continue
+                bad = np.flatnonzero(stored != expected)
+                problems.append(
+                    Problem(
+                        name,
+                        file,
+                        f"differs from the dataset's configuration at {bad.size} trials "
+                        f"(first: trial {int(bad[0])})",
+                    )
+                )
+        return problems
+
+    def verify(self) -> list[Problem]:
+        """Every problem of the store: per-trial arrays, flags, and each finished chunk."""
+        done, problems = self.status()
+        problems += self.check_plan()
+        _, chunk_problems = self.read_chunks(np.flatnonzero(done))
+        return problems + chunk_problems
+
+
+def _decode_error(exc: BaseException) -> str:
+    text = str(exc).strip() or type(exc).__name__
+    if "checksum" in text.lower():
+        return "its stored CRC-32C does not match (truncated or corrupted)"
+    if "blosc" in text.lower() or "decompress" in text.lower():
+        return f"it does not decompress ({text}: truncated or corrupted)"
+    return text.splitlines()[0]
+
+
+# -- writing ------------------------------------------------------------------------------
+def write_chunk(
+    path: str | Path,
+    chunk: int,
+    signals: np.ndarray,
+    specs: Sequence[TrialSpec],
+    store_id: str,
+) -> None:
+    """Write chunk ``chunk``'s signals ``(b, 4, T)``, then its checksum, then mark it done.
+
+    ``store_id`` is the id of the store the writer planned for: if the store at ``path``
+    is another one (replaced while this task ran), nothing is written.
+    """
     import zarr
 
-    group = zarr.open_group(Path(path), mode="r+", zarr_format=3)
+    path = Path(path)
+    group = zarr.open_group(path, mode="r+", zarr_format=3)
+    meta = group.attrs.get(ATTR_KEY) or {}
+    if meta.get("store_id") != store_id:
+        raise DatasetError(
+            f"dataset {path} was replaced by another writer while chunk {chunk} was being "
+            f"simulated; nothing was written to it",
+            "check who else writes this path",
+        )
     arr = group["signals"]
     c = arr.chunks[0]
     start = chunk * c
     stop = min(start + c, arr.shape[0])
     expected = (stop - start, *arr.shape[1:])
-    if signals.shape != expected or signals.dtype != np.float32:
+    if signals.shape != expected or signals.dtype != np.float32 or len(specs) != expected[0]:
         raise ValueError(
-            f"chunk {chunk} signals must be float32 {expected}; got {signals.dtype} {signals.shape}"
+            f"chunk {chunk} signals must be float32 {expected} for {expected[0]} specs; "
+            f"got {signals.dtype} {signals.shape} for {len(specs)} specs"
         )
+    crc = chunk_checksum(
+        signals,
+        np.array([class_index(s.shape, s.material) for s in specs], dtype=np.int16),
+        np.array([s.force_n for s in specs], dtype=np.float64),
+        np.array([s.speed_mm_s for s in specs], dtype=np.float64),
+        np.array([s.seed for s in specs], dtype=np.int64),
+    )
     arr[start:stop] = signals
-    # zarr renamed the chunk file into place whole; flush it to the disk before the flag, so
+    # zarr renamed each file into place whole; flush them to the disk before the flag, so
     # even a power cut cannot leave a chunk marked done whose data never reached the disk.
-    _fsync_chunk(Path(path) / "signals" / "c" / str(chunk))
+    _fsync(chunk_file(path, "signals", chunk))
+    group["checksum"][chunk] = np.uint32(crc)
+    _fsync(chunk_file(path, "checksum", chunk))
     group["done"][chunk] = 1
 
 
-def _fsync_chunk(chunk_dir: Path) -> None:
-    for file in chunk_dir.rglob("*"):
-        if file.is_file():
-            fd = os.open(file, os.O_RDONLY)
-            try:
-                os.fsync(fd)
-            finally:
-                os.close(fd)
+def clear_chunks(path: str | Path, chunks: Iterable[int]) -> None:
+    """Mark ``chunks`` not done (before they are re-simulated)."""
+    import zarr
+
+    group = zarr.open_group(Path(path), mode="r+", zarr_format=3)
+    for k in chunks:
+        group["done"][int(k)] = 0
+
+
+def rewrite_plan(path: str | Path, names: Iterable[str]) -> None:
+    """Rewrite the per-trial arrays ``names`` from the stored configuration's plan."""
+    import zarr
+
+    path = Path(path)
+    trials = plan(stored_config(path))
+    group = zarr.open_group(path, mode="r+", zarr_format=3)
+    for name in names:
+        group[name][:] = getattr(trials, name)
+
+
+def _fsync(file: Path) -> None:
+    if file.is_file():
+        fd = os.open(file, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
 
 
 def remove_partial_files(path: str | Path) -> int:
@@ -200,61 +680,55 @@ def remove_partial_files(path: str | Path) -> int:
     return count
 
 
-def remove(path: str | Path) -> None:
-    """Delete a store (only a Zarr group directory, so a mistyped path cannot wipe a folder)."""
-    path = Path(path)
-    if not is_store(path):
-        raise FileExistsError(
-            f"{path} exists and is not a tactile-synth dataset; refusing to overwrite it "
-            f"(choose another --out or delete it yourself)"
-        )
-    shutil.rmtree(path)
-
-
+# -- loading ------------------------------------------------------------------------------
 def load_dataset(path: str | Path, *, allow_incomplete: bool = False) -> Dataset:
-    """Read a store into a :class:`Dataset` (signals float32 ``(n, 4, T)``).
+    """Read a store into a :class:`Dataset` (signals float32 ``(n, 4, T)``), checking
+    every chunk it reads and the per-trial arrays (:class:`DatasetDamaged` if any fails).
 
-    An incomplete store (an interrupted generation) raises ``ValueError`` unless
+    An incomplete store (an interrupted generation) raises ``DatasetError`` unless
     ``allow_incomplete``, in which case only the finished chunks' trials are returned.
     """
-    group, meta = open_store(path)
-    done = done_mask(group)
-    if not done.all() and not allow_incomplete:
-        raise ValueError(
-            f"dataset {path} is incomplete ({int(done.sum())}/{done.size} chunks done); "
+    store = Store.open(path)
+    path = store.path
+    done, problems = store.status()
+    if not done.all() and not allow_incomplete and not problems:
+        raise DatasetError(
+            f"dataset {path} is incomplete ({int(done.sum())}/{done.size} chunks done)",
             f"finish it with `tactile-synth generate --resume --out {path}` "
-            f"or load it with allow_incomplete=True"
+            f"or load it with allow_incomplete=True",
         )
-    c = int(meta["chunk_trials"])
-    n = int(meta["n_trials"])
-    rows = np.zeros(n, dtype=bool)
-    for k in np.flatnonzero(done):
-        rows[k * c : (k + 1) * c] = True
-    columns = {name: np.asarray(group[name][:]) for name in _PLAN_ARRAYS}
-    if rows.all():
-        signals = np.asarray(group["signals"][:])
-    else:
-        signals = np.concatenate(
-            [np.asarray(group["signals"][k * c : (k + 1) * c]) for k in np.flatnonzero(done)]
-            or [np.zeros((0, len(CHANNELS), N_SAMPLES), np.float32)]
-        )
-    columns = {k: v[rows] for k, v in columns.items()}
-    classes = tuple(meta["classes"])
+    problems += store.check_plan()
+    chunks, chunk_problems, whole = store._read_chunks(np.flatnonzero(done))
+    problems += chunk_problems
+    if problems:
+        raise DatasetDamaged(path, problems)
+    classes = tuple(store.meta["classes"])
     if classes != CLASS_NAMES:
-        raise ValueError(f"dataset {path} lists classes that differ from synth.CLASS_NAMES")
-    names = np.array(classes)[columns["label"].astype(np.intp)]
-    shape = np.array([s.split("/")[0] for s in names], dtype=str)
-    material = np.array([s.split("/")[1] for s in names], dtype=str)
-    attrs = dict(meta)
+        raise DatasetError(f"dataset {path} lists classes that differ from synth.CLASS_NAMES")
+    rows = np.zeros(store.n_trials, dtype=bool)
+    for k in chunks:
+        rows[store.rows(k)] = True
+    if whole is not None:
+        signals = whole  # every chunk read at once and verified: no copy
+    else:
+        signals = (
+            np.concatenate([chunks[k] for k in sorted(chunks)])
+            if chunks
+            else np.zeros((0, len(CHANNELS), N_SAMPLES), np.float32)
+        )
+    trials = store.plan
+    label = trials.label[rows]
+    names = np.array(classes)[label.astype(np.intp)]
+    attrs = dict(store.meta)
     attrs["complete"] = bool(done.all())
     return Dataset(
         signals=signals,
-        shape=shape,
-        material=material,
-        label=columns["label"].astype(np.int64),
-        force_n=columns["force_n"],
-        speed_mm_s=columns["speed_mm_s"],
-        seed=columns["seed"],
+        shape=np.array([s.split("/")[0] for s in names], dtype=str),
+        material=np.array([s.split("/")[1] for s in names], dtype=str),
+        label=label.astype(np.int64),
+        force_n=trials.force_n[rows],
+        speed_mm_s=trials.speed_mm_s[rows],
+        seed=trials.seed[rows],
         classes=classes,
         attrs=attrs,
     )

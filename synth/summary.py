@@ -1,7 +1,9 @@
-"""A human-readable summary of a dataset store (``tactile-synth inspect``)."""
+"""A human-readable summary of a dataset store (``tactile-synth inspect``), with every
+finished chunk and per-trial array checked."""
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
@@ -9,25 +11,18 @@ import numpy as np
 from . import store
 
 
-def _chunk_rows(k: int, c: int, n: int) -> slice:
-    return slice(k * c, min((k + 1) * c, n))
-
-
-def channel_stats(group, done: np.ndarray, chunk_trials: int) -> dict[str, np.ndarray]:
-    """Per-channel mean, std, min, max, rms over the finished chunks, streamed chunk by chunk.
-
-    Returns arrays of shape ``(4,)`` (float64) and ``trials`` (how many were summarised).
-    """
-    signals = group["signals"]
-    n, n_ch = signals.shape[0], signals.shape[1]
-    total = np.zeros(n_ch)
-    total_sq = np.zeros(n_ch)
-    lo = np.full(n_ch, np.inf)
-    hi = np.full(n_ch, -np.inf)
+def channel_stats(chunks: Iterable[np.ndarray], n_channels: int) -> dict[str, np.ndarray]:
+    """Per-channel mean, std, min, max, rms over ``chunks`` (each ``(b, C, T)``), streamed
+    chunk by chunk. Returns arrays of shape ``(C,)`` (float64) and ``trials`` (how many
+    were summarised)."""
+    total = np.zeros(n_channels)
+    total_sq = np.zeros(n_channels)
+    lo = np.full(n_channels, np.inf)
+    hi = np.full(n_channels, -np.inf)
     count = 0
     trials = 0
-    for k in np.flatnonzero(done):
-        x = np.asarray(signals[_chunk_rows(int(k), chunk_trials, n)], dtype=np.float64)
+    for chunk in chunks:
+        x = np.asarray(chunk, dtype=np.float64)
         total += x.sum(axis=(0, 2))
         total_sq += np.square(x).sum(axis=(0, 2))
         lo = np.minimum(lo, x.min(axis=(0, 2)))
@@ -51,35 +46,57 @@ def _short(name: str) -> str:
     return name.replace("force=", "").replace(",speed=", " ")
 
 
-def summarize(path: str | Path) -> str:
-    """The text ``tactile-synth inspect`` prints: provenance, completeness, trials per class
-    and condition, and per-channel signal statistics."""
+def inspect_store(path: str | Path) -> tuple[str, list[store.Problem]]:
+    """The text ``tactile-synth inspect`` prints (provenance, completeness, integrity,
+    trials per class and condition, per-channel signal statistics over the chunks that
+    pass their checks) and the problems found."""
     path = Path(path)
-    group, meta = store.open_store(path)
-    done = store.done_mask(group)
-    cfg = meta["config"]
-    n, c = int(meta["n_trials"]), int(meta["chunk_trials"])
-    finished = np.zeros(n, dtype=bool)
+    st = store.Store.open(path)
+    meta, cfg = st.meta, st.config
+    done, problems = st.status()
+    problems += st.check_plan()
+    n, c = st.n_trials, st.chunk_trials
+    good: list[int] = []
+
+    def verified_chunks():
+        for k in np.flatnonzero(done):
+            data, bad = st.read_chunks([int(k)])  # one chunk at a time: memory stays flat
+            problems.extend(bad)
+            if data:
+                good.append(int(k))
+                yield data[int(k)]
+
+    stats = channel_stats(verified_chunks(), len(meta["channels"]))
+    finished = np.zeros(n, dtype=bool)  # marked done and verified
+    for k in good:
+        finished[st.rows(k)] = True
+    marked = np.zeros(n, dtype=bool)
     for k in np.flatnonzero(done):
-        finished[_chunk_rows(int(k), c, n)] = True
+        marked[st.rows(int(k))] = True
     complete = bool(done.all())
     lines = [
         f"dataset    {path}",
         f"format     {meta['format_version']} (tactile-synth {meta['package_version']}, "
         f"MuJoCo {meta['mujoco_version']}, zarr {meta['zarr_version']}), "
         f"created {meta['created_at']}",
-        f"config     preset={cfg['preset']} seed={cfg['seed']} "
-        f"{len(cfg['shapes'])} shapes x {len(cfg['materials'])} materials x "
-        f"{len(meta['conditions'])} conditions x {cfg['trials_per_class']} trials "
-        f"({n} trials, {meta['n_chunks']} chunks of {c})",
+        f"config     preset={cfg.preset} seed={cfg.seed} "
+        f"{len(cfg.shapes)} shapes x {len(cfg.materials)} materials x "
+        f"{len(meta['conditions'])} conditions x {cfg.trials_per_class} trials "
+        f"({n} trials, {st.n_chunks} chunks of {c})",
         f"complete   {'yes' if complete else 'NO'}: {int(done.sum())}/{done.size} chunks, "
-        f"{int(finished.sum())}/{n} trials"
+        f"{int(marked.sum())}/{n} trials"
         + ("" if complete else f" (finish with: tactile-synth generate --resume --out {path})"),
-        "",
-        "trials per class and condition" + ("" if complete else " (finished/planned)"),
     ]
-    label = np.asarray(group["label"][:])
-    cond = np.asarray(group["condition"][:])
+    if problems:
+        shown = "; ".join(str(p) for p in problems[:5])
+        more = f"; and {len(problems) - 5} more" if len(problems) > 5 else ""
+        lines.append(
+            f"integrity  DAMAGED: {shown}{more} (repair with: {store.repair_command(path)})"
+        )
+    else:
+        lines.append("integrity  ok: every finished chunk and per-trial array passes its checks")
+    lines += ["", "trials per class and condition" + ("" if complete else " (finished/planned)")]
+    label, cond = st.plan.label, st.plan.condition
     heads = [_short(x) for x in meta["conditions"]]
     width = max(12, *(len(h) for h in heads))
     lines.append(f"  {'class':<22}" + "".join(f"{h:>{width}}" for h in heads))
@@ -88,16 +105,20 @@ def summarize(path: str | Path) -> str:
         for j in range(len(heads)):
             rows = (label == cls) & (cond == j)
             got, planned = int((rows & finished).sum()), int(rows.sum())
-            cells.append(f"{got}" if complete else f"{got}/{planned}")
+            cells.append(f"{got}" if complete and not problems else f"{got}/{planned}")
         lines.append(f"  {meta['classes'][cls]:<22}" + "".join(f"{x:>{width}}" for x in cells))
-    stats = channel_stats(group, done, c)
     lines += [
         "",
         f"signal statistics per channel (volts, over {int(stats['trials'])} trials x "
-        f"{group['signals'].shape[2]} samples at {meta['sample_rate_hz']} Hz)",
+        f"{st.arrays['signals'].shape[2]} samples at {meta['sample_rate_hz']} Hz)",
         f"  {'channel':<8}" + "".join(f"{h:>12}" for h in ("mean", "std", "min", "max", "rms")),
     ]
     for i, ch in enumerate(meta["channels"]):
         vals = [stats[key][i] for key in ("mean", "std", "min", "max", "rms")]
         lines.append(f"  {ch:<8}" + "".join(f"{v:>12.5g}" for v in vals))
-    return "\n".join(lines)
+    return "\n".join(lines), problems
+
+
+def summarize(path: str | Path) -> str:
+    """The text ``tactile-synth inspect`` prints (see :func:`inspect_store`)."""
+    return inspect_store(path)[0]

@@ -8,16 +8,17 @@ simulator is exercised end to end in tests/test_generate.py.
 from __future__ import annotations
 
 import json
+import os
 
 import numpy as np
 import pytest
 import zarr
 
 import synth.generation as generation
-from synth import CLASS_NAMES, PRESETS, GenerationConfig, load_dataset, store
+from synth import CLASS_NAMES, PRESETS, GenerationConfig, atomic, load_dataset, store
 from synth.dataset_cli import register  # noqa: F401 - the CLI module must import cleanly
 from synth.export import export
-from synth.presets import load_toml, plan, trial_seed
+from synth.presets import load_toml, plan, trial_seed, trial_seeds
 from synth.summary import summarize
 
 FAKE_SYNTH = {"fake": True}
@@ -67,7 +68,7 @@ def run(config, out, sim=None, **kw):
 
 
 # -- grids -----------------------------------------------------------------------------
-def test_presets_have_the_issue_sizes():
+def test_presets_have_the_paper_sizes():
     assert PRESETS["quick"].n_trials == 36 * 4
     assert PRESETS["paper"].n_trials == 2160
     pert = PRESETS["perturbation"]
@@ -115,6 +116,23 @@ def test_seeds_do_not_depend_on_the_rest_of_the_grid():
     assert small_seeds[(CLASS_NAMES.index("square/wood"), 1.4, 2)] == trial_seed(
         0, CLASS_NAMES.index("square/wood"), 1.4, 10.0, 2
     )
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_vectorised_trial_seeds_equal_numpys_seed_sequence(seed):
+    """The plan's seeds (checked on every load) computed for all trials at once are
+    numpy's SeedSequence words, whatever the inputs (small, large, 32-bit edges)."""
+    rng = np.random.default_rng(seed)
+    n = 400
+    cls = rng.integers(0, 36, n)
+    force = rng.choice([0.01, 0.6, 1.0, 1.4, 3.3333333, 10.0], n)
+    speed = rng.choice([0.1, 6.0, 10.0, 12.345, 500.0], n)
+    trial = rng.integers(0, 10**6, n)
+    for base in (int(rng.integers(0, 2**31)), 2**32 - 1, 2**32 + int(rng.integers(0, 2**40))):
+        got = trial_seeds(base, cls, force, speed, trial)
+        want = [trial_seed(base, int(c), float(f), float(s), int(k))
+                for c, f, s, k in zip(cls, force, speed, trial, strict=True)]  # fmt: skip
+        np.testing.assert_array_equal(got, want)
 
 
 # -- the store -------------------------------------------------------------------------
@@ -168,6 +186,19 @@ def test_interrupted_run_resumes_without_recomputing(tmp_path):
     np.testing.assert_array_equal(done.seed, ref.seed)
 
 
+def test_lock_is_exclusive_and_released(tmp_path):
+    target = tmp_path / "ds"
+    with atomic.PathLock(target):
+        with pytest.raises(atomic.LockedError) as info:
+            atomic.PathLock(target).acquire()  # a second holder, even in this process
+        assert info.value.pid == os.getpid()
+        with pytest.raises(store.DatasetLocked, match=rf"being written by process {os.getpid()}"):
+            run(tiny(), target)
+    assert not atomic.sibling(target, "lock").exists()
+    with atomic.PathLock(target):  # free again
+        pass
+
+
 def test_user_errors_leave_disk_untouched(tmp_path):
     out = run(tiny(), tmp_path / "ds")
     before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
@@ -193,7 +224,8 @@ def test_incompatible_format_version(tmp_path):
     meta = dict(group.attrs[store.ATTR_KEY])
     meta["format_version"] = 99
     group.attrs[store.ATTR_KEY] = meta
-    with pytest.raises(ValueError, match=r"format version 99.*reads version 1"):
+    reads = rf"format version 99.*reads version {store.FORMAT_VERSION}"
+    with pytest.raises(ValueError, match=reads):
         load_dataset(out)
     with pytest.raises(ValueError, match="format version 99"):
         run(None, out, resume=True)

@@ -17,6 +17,7 @@ import numpy as np
 from models.base import FewShotMethod
 from synth import Dataset
 
+from ..guards import check_perturbation_pair
 from ..splits import condition_name
 from .generalisation import (
     Task,
@@ -74,6 +75,7 @@ def run(
         raise ValueError("the perturbation protocol needs perturbed= (the perturbation dataset)")
     if len(perturbed) == 0:
         raise ValueError("perturbed dataset is empty")
+    check_perturbation_pair(data, perturbed, seeds=False)
     if features is None:
         features = dataset_features(data)
     if perturbed_features is None:
