@@ -570,10 +570,9 @@ def load_for_diagnosis(
     """The dataset at ``path``; an unfinished store is refused with a message naming both
     fixes (finish it, or diagnose its finished trials with ``--allow-incomplete``)."""
     from synth import load_dataset
-    from synth.store import done_mask, open_store
+    from synth.store import Store
 
-    group, _ = open_store(path)
-    done = done_mask(group)
+    done, _ = Store.open(path).status()
     if not done.all() and not allow_incomplete:
         raise ValueError(
             f"dataset {path} is incomplete ({int(done.sum())}/{done.size} chunks done); "

@@ -34,6 +34,7 @@ from synth import (
     load_dataset,
     store,
 )
+from synth.presets import plan
 
 SHAPES4 = ("circle", "hexagon", "square", "triangle")
 
@@ -270,16 +271,19 @@ def make_store(
         chunk_trials=chunk_trials,
         synth={"test": True},
     )
-    store.create(path, config)
-    group, meta = store.open_store(path)
-    label = np.asarray(group["label"][:])
+    store_id = store.create(path, config)
+    trials = plan(config)
     rng = np.random.default_rng(11)
     signals = np.stack(
-        [trial_signals(*CLASS_NAMES[int(k)].split("/"), rng, n_samples=N_SAMPLES) for k in label]
+        [
+            trial_signals(*CLASS_NAMES[int(k)].split("/"), rng, n_samples=N_SAMPLES)
+            for k in trials.label
+        ]
     )
-    c = meta["chunk_trials"]
-    for k in range(meta["n_chunks"] if chunks_done is None else chunks_done):
-        store.write_chunk(path, k, signals[k * c : (k + 1) * c])
+    c = config.chunk_trials
+    for k in range(config.n_chunks if chunks_done is None else chunks_done):
+        specs = trials.specs(k * c, (k + 1) * c)
+        store.write_chunk(path, k, signals[k * c : (k + 1) * c], specs, store_id)
 
 
 @pytest.mark.slow
