@@ -318,9 +318,12 @@ def prepare(
     repair: bool = False,
     workers: int = 1,
     local: bool = True,
+    plan_trials: bool = False,
 ) -> Job:
     """Check everything, then create (or, for ``resume``, check) the store; returns the
-    :class:`Job`. Call it holding the store's lock. Nothing on disk changes before every
+    :class:`Job`. ``plan_trials``: also plan a trial of every shape and condition with
+    the MuJoCo simulator (its paths must stay on the plate). Call it holding the store's
+    lock. Nothing on disk changes before every
     check has passed, except finishing a replacement an earlier process left half-way.
     """
     out = Path(out)
@@ -369,6 +372,13 @@ def prepare(
     synth = dict(config.synth) if config.synth is not None else default_synth_config()
     validate_synth_config(synth)
     config = config.replace(synth=synth)
+    if plan_trials:
+        from . import SynthConfig
+        from .simulator import check_grid
+
+        check_grid(
+            config.shapes, config.conditions, config.materials[0], SynthConfig.from_dict(synth)
+        )
     check_resources(config, out, workers=workers, local=local)
     # Every check passed: build the new store's skeleton beside the path.
     if pending.exists():
@@ -425,6 +435,7 @@ def generate(
                 repair=repair,
                 workers=workers,
                 local=local,
+                plan_trials=simulator is None,
             )
             if job.todo:
                 store.remove_partial_files(job.target)

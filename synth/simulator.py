@@ -239,6 +239,21 @@ def _check_on_plate(spec: TrialSpec, x_ref: np.ndarray, y_ref: np.ndarray, radiu
         )
 
 
+def check_grid(
+    shapes_: Sequence[str],
+    conditions: Sequence[tuple[float, float]],
+    material: str,
+    config: SynthConfig | None = None,
+) -> None:
+    """Plan one trial of every shape at every ``(force_n, speed_mm_s)`` condition, so a
+    grid whose slides would leave the plate is refused before anything is simulated
+    (``ValueError`` naming the speed)."""
+    config = _check_config(config)
+    for force, speed in conditions:
+        for shape in shapes_:
+            plan(TrialSpec(shape, material, force_n=force, speed_mm_s=speed), config)
+
+
 def _describe(spec: TrialSpec) -> str:
     return (
         f"shape={spec.shape!r}, material={spec.material!r}, force_n={spec.force_n}, "

@@ -319,7 +319,7 @@ def test_overwrite_failing_halfway_keeps_the_old_dataset(complete, capsys):
 def test_overwrite_refused_by_the_real_simulator_keeps_the_old_dataset(
     complete, capsys, monkeypatch
 ):
-    """The issue's case: --speed 30 fails in the simulator's own check, after planning."""
+    """--speed 30 would slide off the plate: refused while planning, before any change."""
     monkeypatch.undo()  # the real simulator and its configuration
     out, before = complete
     code, _, err = cli(
