@@ -65,6 +65,16 @@ def validate_synth_config(synth: Mapping[str, Any]) -> None:
     SynthConfig.from_dict(dict(synth))
 
 
+def validate_grid(config: GenerationConfig) -> None:
+    """Plan a trial of every shape at every condition with the MuJoCo simulator: a grid
+    whose slides would leave the plate is refused before anything is written."""
+    from . import SynthConfig
+    from .simulator import check_grid
+
+    synth = SynthConfig.from_dict(dict(config.synth or {})) if config.synth else None
+    check_grid(config.shapes, config.conditions, config.materials[0], synth)
+
+
 def run_chunk(
     path: str,
     chunk: int,
@@ -318,12 +328,12 @@ def prepare(
     repair: bool = False,
     workers: int = 1,
     local: bool = True,
-    plan_trials: bool = False,
+    mujoco_plans: bool = True,
 ) -> Job:
     """Check everything, then create (or, for ``resume``, check) the store; returns the
-    :class:`Job`. ``plan_trials``: also plan a trial of every shape and condition with
-    the MuJoCo simulator (its paths must stay on the plate). Call it holding the store's
-    lock. Nothing on disk changes before every
+    :class:`Job`. ``mujoco_plans``: check the grid with the MuJoCo simulator's planner
+    (:func:`validate_grid`; off when another simulator is used). Call it holding the
+    store's lock. Nothing on disk changes before every
     check has passed, except finishing a replacement an earlier process left half-way.
     """
     out = Path(out)
@@ -372,13 +382,8 @@ def prepare(
     synth = dict(config.synth) if config.synth is not None else default_synth_config()
     validate_synth_config(synth)
     config = config.replace(synth=synth)
-    if plan_trials:
-        from . import SynthConfig
-        from .simulator import check_grid
-
-        check_grid(
-            config.shapes, config.conditions, config.materials[0], SynthConfig.from_dict(synth)
-        )
+    if mujoco_plans:
+        validate_grid(config)
     check_resources(config, out, workers=workers, local=local)
     # Every check passed: build the new store's skeleton beside the path.
     if pending.exists():
@@ -435,7 +440,7 @@ def generate(
                 repair=repair,
                 workers=workers,
                 local=local,
-                plan_trials=simulator is None,
+                mujoco_plans=simulator is None,
             )
             if job.todo:
                 store.remove_partial_files(job.target)

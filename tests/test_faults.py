@@ -58,6 +58,7 @@ class FakeSimulator:
 def _fake_simulator(monkeypatch):
     """The CLI's generate uses the stand-in too (threads in this process look it up)."""
     monkeypatch.setattr(generation, "validate_synth_config", lambda synth: None)
+    monkeypatch.setattr(generation, "validate_grid", lambda config: None)
     monkeypatch.setattr(generation, "default_synth_config", lambda: dict(FAKE_SYNTH))
     monkeypatch.setattr(generation, "mujoco_simulator", FakeSimulator())
 
@@ -120,6 +121,7 @@ import numpy as np
 import synth.generation as g
 from synth import GenerationConfig
 g.validate_synth_config = lambda synth: None
+g.validate_grid = lambda config: None
 g.default_synth_config = lambda: {"fake": True}
 out, gate = sys.argv[1], pathlib.Path(sys.argv[2])
 
