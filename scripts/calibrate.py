@@ -184,7 +184,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", help="write calibration.md and calibration.json here")
     p.set_defaults(func=cmd_sweep)
     args = parser.parse_args(argv)
-    if getattr(args, "trials_per_class", 1) < 2:
+    if getattr(args, "trials_per_class", 2) < 2:
         parser.error("--trials-per-class must be at least 2 (leave-one-out needs a neighbour)")
     return args.func(args)
 
