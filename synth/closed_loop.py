@@ -154,7 +154,7 @@ class ClosedLoop:
         warm = np.zeros((b, self.nv))
         qvel = slice(1 + self.nq, 1 + self.nq + self.nv)
         frictions = [m.geom_friction for m in self.models]
-        warnings = [[d.warning[i] for i in range(len(d.warning))] for d in datas]
+        warnings = [d.warning.number for d in datas]  # live views of the warning counters
         c_found = cols["contact"].start
         c_fz = c_found + 3
         c_skin = slice(cols["skin_pos"].start, cols["skin_pos"].start + 2)
@@ -205,7 +205,7 @@ class ClosedLoop:
             height_out[g] = h
             if qpos_out is not None:
                 qpos_out[g] = state_buf[:, :, 1 : 1 + self.nq]
-            if any(w.number for ws in warnings for w in ws):
+            if any(w.any() for w in warnings):
                 return self._finish(sens_out, height_out, steps)
             state = state_buf[:, k - 1].copy()
             warm = (state_buf[:, k - 1, qvel] - state_buf[:, k - 2, qvel]) / dt
