@@ -22,12 +22,12 @@ BANDS_HZ = {"low": (5.0, 20.0), "high": (80.0, 200.0)}
 #: Settings that keep the test fast; the input path (resampling, wavelet scales, frame
 #: spectra) is the benchmark's.
 SETTINGS = {
-    "MAML": dict(max_iterations=200, val_episodes=10, inner_lr=0.1),
+    "MAML": dict(max_iterations=100, val_episodes=10, inner_lr=0.1, test_steps=10),
     "CNN": dict(steps=30, lr=1e-2),
     "BiLSTM": dict(steps=30, lr=1e-2),
-    "CWT-ResNet-ML": dict(max_epochs=8, val_episodes=20),
+    "CWT-ResNet-ML": dict(max_epochs=6, val_episodes=20),
 }
-EPISODES = 40
+EPISODES = 20
 
 
 def tone_set(freqs_hz: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
