@@ -11,20 +11,25 @@ adapted to each test episode by a few SGD steps on its support set.
   the blocks run at 62.5 Hz and below; receptive field about 260 ms, then global average
   pooling and a linear head (32-d embedding). No batch norm: its batch statistics would
   make a query's label depend on the other queries.
-- Meta-training (first-order; Finn et al.'s settings): ``inner_steps`` = 5 SGD steps at
-  ``inner_lr`` on each task's support set, Adam at ``outer_lr`` = 1e-3 on the query loss
-  at the adapted weights, ``meta_batch`` = 4 tasks of 5-way 5-shot per outer step. The
-  head starts at zero for every task (as in "unicorn-MAML", Ye & Chao 2022), so one
+- Meta-training (first-order: the query-loss gradient at the adapted weights is the
+  meta-gradient, no second derivatives; Finn et al.'s miniImageNet settings otherwise):
+  ``inner_steps`` = 5 SGD steps on each task's support set, Adam at ``outer_lr`` = 1e-3
+  on the query loss, ``meta_batch`` = 4 tasks of 5-way 5-shot per outer step. The head
+  starts at zero for every task (as in "unicorn-MAML", Ye & Chao 2022), so one
   meta-learned body serves 5-way meta-training and N-way tests alike.
 - Early stopping: about a quarter of the training classes are held out
-  (:func:`models.nets.holdout_classes`); every ``eval_every`` outer steps the body is
-  adapted to 5-way 1- and 5-shot validation episodes of those classes. Training stops
-  when that validation accuracy has not risen by ``min_delta`` for ``patience``
-  evaluations (or at ``max_iterations``), and the best body is kept. ``meta_curve_``
-  is the curve: an ``(n_evals, 2)`` array of (outer step, validation accuracy).
+  (:func:`models.nets.holdout_classes`); every ``eval_every`` (50) outer steps the body
+  is adapted to 5-way 1- and 5-shot validation episodes of those classes. Training
+  stops when that validation accuracy has not risen by ``min_delta`` (0.5 pp) for
+  ``patience`` (4) evaluations, and the best body is kept. ``max_iterations`` (1,000)
+  bounds a fit's cost (the full run fits MAML eight times); ``plateaued_`` says whether
+  the plateau or the bound ended training. ``meta_curve_`` is the curve: an
+  ``(n_evals, 2)`` array of (outer step, validation accuracy).
 - ``inner_lr`` and ``test_steps`` are chosen on the same validation episodes: the first
-  ``lr_probe`` outer steps are run for each of :data:`INNER_LRS` and the best continues;
-  ``test_steps`` is the best of :data:`TEST_STEPS` for the kept body.
+  ``lr_probe`` (100) outer steps are run for each of :data:`INNER_LRS` (Finn et al.'s
+  0.01, and 0.1) from the same start and the best continues (``lr_probe_`` holds the
+  scores); ``test_steps`` is the best of :data:`TEST_STEPS` (up to Finn et al.'s 10)
+  for the kept body.
 
 Written with plain tensors and ``torch.autograd.grad`` (no meta-learning library): the
 tasks of a meta-batch, and the test episodes of a chunk, are separate networks stacked
@@ -33,6 +38,7 @@ along a leading axis (grouped convolutions, :mod:`models.nets`).
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Sequence
 
 import numpy as np
@@ -61,10 +67,12 @@ LAYERS = (
     ConvLayer(32, 32, 3, stride=2),
     ConvLayer(32, 32, 3, stride=2),
 )
-#: Candidate inner-loop learning rates (Finn et al. used 0.01 and 0.4) and test-time
-#: adaptation steps (they used 10), chosen on validation episodes.
+log = logging.getLogger(__name__)
+
+#: Candidate inner-loop learning rates and test-time adaptation steps, chosen on
+#: validation episodes.
 INNER_LRS = (0.01, 0.1)
-TEST_STEPS = (5, 10, 20)
+TEST_STEPS = (3, 5, 10)
 #: Fraction of the training classes held out for validation.
 HOLDOUT = 0.25
 CHUNK = 64
@@ -130,7 +138,7 @@ class MAML(FewShotMethod):
         self,
         *,
         seed: int = 0,
-        max_iterations: int = 2000,
+        max_iterations: int = 1000,
         meta_batch: int = 4,
         inner_steps: int = 5,
         inner_lr: float | None = None,
@@ -253,6 +261,7 @@ class MAML(FewShotMethod):
             it += self.eval_every
             acc = self._validate(x_val, meta, val, lr)
             curve.append((it, float(acc.max())))
+            log.info("MAML outer step %d: validation accuracy %.4f", it, acc.max())
             if acc.max() > best[0] + self.min_delta:
                 best = (float(acc.max()), it, [p.detach().clone() for p in meta], acc)
                 bad = 0
