@@ -6,10 +6,10 @@ Input rate: the 1 kHz windows are resampled to :data:`INPUT_RATE_HZ` (500 Hz) by
 polyphase filtering (``scipy.signal.resample_poly``, its default Kaiser FIR: flat to
 200 Hz, -3 dB at 240 Hz, -6 dB at the new 250 Hz Nyquist frequency), so texture
 vibration up to 250 Hz (machining marks at 10-20 mm/s) reaches the networks without
-aliasing, at half the samples of the raw rate. The networks' first layer is a strided
-convolution (a learned filter bank over 16 ms windows), which brings the time axis down
-to 125 Hz right away: the per-episode training cost then stays that of a network on a
-coarse sequence while every frequency band up to 250 Hz is seen.
+aliasing, at half the samples of the raw rate. The CNNs' first layer is a strided
+convolution (a learned filter bank over 32 ms windows, stride 16 ms), which brings the
+time axis down to 62.5 Hz right away: the per-episode training cost then stays that of a
+network on a coarse sequence while every frequency band up to 250 Hz is seen.
 
 Hyper-parameters that no paper fixes (steps, learning rates) are chosen on validation
 episodes drawn from the training split only (:func:`validation_episodes`,
