@@ -65,7 +65,8 @@ def band_accuracy(name: str, seed: int) -> dict[str, float]:
 
 #: Largest allowed shortfall of the high band against the low band. MAML's short
 #: meta-training here leaves it favouring one band or the other depending on the seed
-#: (high minus low from -0.33 to +0.38 over seeds 0-9 at 100 and 300 outer steps), so its
+#: (high minus low from -0.33 to +0.38 over seeds 0-8 at 100 outer steps and three of
+#: them at 300), so its
 #: bound only checks that the high band is not lost, as it is when the input is
 #: block-averaged to 125 Hz (high-band accuracy at chance).
 MAX_GAP = {"MAML": 0.4, "CNN": 0.12, "BiLSTM": 0.12, "CWT-ResNet-ML": 0.12}
