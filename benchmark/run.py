@@ -445,10 +445,9 @@ class RunPlan:
 def run_plan(quick: bool, *, seed: int = 0) -> RunPlan:
     """The full (``paper`` + ``perturbation`` presets) or ``--quick`` plan.
 
-    Budgets: the paper's 500 episodes for every method on closed-set; on the
-    generalisation protocols (11 ways x 3 folds or 9 conditions each) the deep baselines
-    whose per-episode adaptation is slow get fewer (see :data:`FULL_BUDGET`); every record
-    carries its own ``episodes``.
+    Budgets (:data:`FULL_BUDGET`): the same for every method, the paper's 500 episodes per
+    closed-set column and 100 per generalisation point (11 ways x 3 folds or 9
+    conditions each); every record carries its own ``episodes``.
     """
     from synth.presets import preset
 
@@ -470,27 +469,9 @@ def run_plan(quick: bool, *, seed: int = 0) -> RunPlan:
     )
 
 
-#: Episode budgets of the full run, sized from measured costs (scripts/bench_methods.py on
-#: the paper dataset, 2 cores: adapt ms per 5-way-5-shot episode AFOP-ML 2, AFO-MLP-ML 3,
-#: Direct-Prot-ML 8, CWT-ResNet-ML 35, MAML 69, CNN 61, BiLSTM 68; a 36-way-5-shot episode
-#: costs ~7x a 5-way-5-shot one). With 500/200/100 episodes the closed-set protocol alone
-#: ran over 19 minutes, so these were halved again. Measured with these budgets
-#: (``python3 scripts/bench_run.py --out DIR``, 2 cores): the whole run 1,204 s. The
-#: feature-based methods get the paper's 500 episodes on closed-set; the methods that
-#: train a network per episode get fewer, and every record states its episode count.
-FULL_BUDGET = Budget(
-    default=500,
-    per_method={"CWT-ResNet-ML": 100, "MAML": 50, "CNN": 50, "BiLSTM": 50},
-    generalisation_per_method={
-        "AFOP-ML": 100,
-        "AFO-MLP-ML": 100,
-        "Direct-Prot-ML": 100,
-        "CWT-ResNet-ML": 25,
-        "MAML": 20,
-        "CNN": 20,
-        "BiLSTM": 20,
-    },
-)
+#: Episode budgets of the full run: the same for every method, the paper's 500 episodes
+#: per closed-set column and 100 per generalisation point (fold or condition x way).
+FULL_BUDGET = Budget(default=500, generalisation_per_method=dict.fromkeys(METHOD_NAMES, 100))
 QUICK_METHODS: tuple[str, ...] = ("AFOP-ML", "AFO-MLP-ML", "Direct-Prot-ML")
 QUICK_BUDGET = Budget(default=100)
 

@@ -1,17 +1,35 @@
-"""MAML (paper Table I): a 1-D CNN on the raw 4-channel signals (125 Hz, z-scored),
-meta-trained with first-order MAML on episodes of the training classes, then adapted to
-each test episode with a few gradient steps on its support set.
+"""MAML (paper Table I; Finn, Abbeel & Levine 2017): a 1-D CNN on the raw 4-channel
+signals, meta-trained with **first-order** MAML on episodes of the training classes, then
+adapted to each test episode by a few SGD steps on its support set.
 
-- Inner loop: ``inner_steps`` (5) plain SGD steps at ``inner_lr`` (0.1) on the support
-  cross-entropy during meta-training, ``test_steps`` (30) at test time; all weights
-  (conv body and head) are adapted. (Measured on a 36-class synthetic set: 10 test steps
-  gave 65 % at 5-way-1-shot, 30 gave 74 %; inner rates 0.4 and 1.0 diverged.)
-- Outer loop: first-order MAML (the query-loss gradient at the adapted weights is the
-  meta-gradient), Adam at ``outer_lr`` (1e-3), ``meta_batch`` (8) tasks per step,
-  ``meta_iterations`` (200) steps of 5-way episodes.
-- The classifier head starts at zero for every task (as in "unicorn-MAML", Ye & Chao
-  2022): the output layer is then the same for all N and label orders, so one
+- Input: per-channel z-scored signals resampled without aliasing to 500 Hz
+  (:func:`models.nets.resample`), so the band up to 250 Hz is seen.
+- Network (:data:`LAYERS`): the paper names no layer sizes for its MAML CNN, so this is
+  MAML's reference backbone in 1-D (Finn et al.: four convolutions with ReLU, each of
+  stride 2 in their Omniglot model, 32 channels as in their miniImageNet model), with a
+  wider strided first layer (a filter bank of 16 filters over 32 ms, stride 16 ms) so
+  the blocks run at 62.5 Hz and below; receptive field about 260 ms, then global average
+  pooling and a linear head (32-d embedding). No batch norm: its batch statistics would
+  make a query's label depend on the other queries.
+- Meta-training (first-order: the query-loss gradient at the adapted weights is the
+  meta-gradient, no second derivatives; Finn et al.'s miniImageNet settings otherwise):
+  ``inner_steps`` = 5 SGD steps on each task's support set, Adam at ``outer_lr`` = 1e-3
+  on the query loss, ``meta_batch`` = 4 tasks of 5-way 5-shot per outer step. The head
+  starts at zero for every task (as in "unicorn-MAML", Ye & Chao 2022), so one
   meta-learned body serves 5-way meta-training and N-way tests alike.
+- Early stopping: about a quarter of the training classes are held out
+  (:func:`models.nets.holdout_classes`); every ``eval_every`` (50) outer steps the body
+  is adapted to 5-way 1- and 5-shot validation episodes of those classes. Training
+  stops when that validation accuracy has not risen by ``min_delta`` (0.5 pp) for
+  ``patience`` (4) evaluations, and the best body is kept. ``max_iterations`` (1,000)
+  bounds a fit's cost (the full run fits MAML eight times); ``plateaued_`` says whether
+  the plateau or the bound ended training. ``meta_curve_`` is the curve: an
+  ``(n_evals, 2)`` array of (outer step, validation accuracy).
+- ``inner_lr`` and ``test_steps`` are chosen on the same validation episodes: the first
+  ``lr_probe`` (100) outer steps are run for each of :data:`INNER_LRS` (Finn et al.'s
+  0.01, and 0.1) from the same start and the best continues (``lr_probe_`` holds the
+  scores); ``test_steps`` is the best of :data:`TEST_STEPS` (up to Finn et al.'s 10)
+  for the kept body.
 
 Written with plain tensors and ``torch.autograd.grad`` (no meta-learning library): the
 tasks of a meta-batch, and the test episodes of a chunk, are separate networks stacked
@@ -20,20 +38,43 @@ along a leading axis (grouped convolutions, :mod:`models.nets`).
 
 from __future__ import annotations
 
+import logging
+from collections.abc import Sequence
+
 import numpy as np
 import torch
+import torch.nn.functional as F
 
 from .base import FewShotMethod
-from .episodes import meta_training_episodes
+from .episodes import EpisodeBatch, meta_training_episodes
 from .nets import (
     ChannelScaler,
+    ConvLayer,
+    PoolCache,
+    accuracy,
     cnn_forward,
-    decimate,
     episode_inputs,
     episodes_per_chunk,
+    holdout_classes,
     init_cnn,
+    resample,
+    validation_episodes,
 )
 
+LAYERS = (
+    ConvLayer(4, 16, 16, stride=8),
+    ConvLayer(16, 32, 3, stride=2),
+    ConvLayer(32, 32, 3, stride=2),
+    ConvLayer(32, 32, 3, stride=2),
+)
+log = logging.getLogger(__name__)
+
+#: Candidate inner-loop learning rates and test-time adaptation steps, chosen on
+#: validation episodes.
+INNER_LRS = (0.01, 0.1)
+TEST_STEPS = (3, 5, 10)
+#: Fraction of the training classes held out for validation.
+HOLDOUT = 0.25
 CHUNK = 64
 #: Support examples adapted at once (cache-sized: see :func:`models.nets.episodes_per_chunk`).
 ROWS = 3072
@@ -49,26 +90,47 @@ def _adapt(
     x: torch.Tensor,
     support: np.ndarray,
     body: list[torch.Tensor],
-    n_way: int,
-    k_shot: int,
     steps: int,
     lr: float,
-) -> list[torch.Tensor]:
-    """Inner loop for E tasks at once; returns the adapted (detached) weights."""
-    e = support.shape[0]
+    marks: Sequence[int] = (),
+    query: np.ndarray | None = None,
+) -> tuple[list[torch.Tensor], list[np.ndarray]]:
+    """Inner loop for E tasks at once: ``steps`` SGD steps from ``body`` with a zero head.
+
+    Returns the adapted (detached) weights, and the query predictions ``(E, M)`` after
+    each step count in ``marks`` (when ``query`` is given)."""
+    e, n_way, k_shot = support.shape
     fast = [p.detach().requires_grad_(True) for p in _zero_head(body, e, n_way)]
     xs = episode_inputs(x, support.reshape(e, -1))
+    xq = None if query is None else episode_inputs(x, query)
     tgt = torch.arange(n_way).repeat_interleave(k_shot)[:, None].expand(-1, e).reshape(-1)
-    for _ in range(steps):
-        logits = cnn_forward(xs, fast)
-        loss = torch.nn.functional.cross_entropy(logits.reshape(-1, n_way), tgt) * e
+    preds = []
+
+    def label() -> None:
+        with torch.no_grad():
+            preds.append(cnn_forward(xq, fast, LAYERS).argmax(dim=-1).T.numpy())
+
+    if 0 in marks:
+        label()
+    for step in range(1, steps + 1):
+        logits = cnn_forward(xs, fast, LAYERS)
+        loss = F.cross_entropy(logits.reshape(-1, n_way), tgt) * e
         grads = torch.autograd.grad(loss, fast)
-        fast = [(p - lr * g).detach().requires_grad_(True) for p, g in zip(fast, grads)]  # noqa: B905
-    return fast
+        with torch.no_grad():
+            fast = [p - lr * g for p, g in zip(fast, grads)]  # noqa: B905
+        for p in fast:
+            p.requires_grad_(True)
+        if step in marks:
+            label()
+    return fast, preds
 
 
 class MAML(FewShotMethod):
-    """Learned: ``scaler_`` (per-channel z-scoring), ``body_`` (meta-learned weights)."""
+    """Learned: ``scaler_`` (per-channel z-scoring), ``body_`` (meta-learned weights),
+    ``inner_lr_`` and ``test_steps_`` (chosen on validation episodes), ``meta_curve_``
+    (``(n_evals, 2)``: outer step, validation accuracy), ``best_iteration_`` (the outer
+    step of the kept body), ``iterations_`` (outer steps run), ``plateaued_`` (False if
+    ``max_iterations`` stopped training first), ``feature_dim_`` (32)."""
 
     name = "MAML"
 
@@ -76,39 +138,69 @@ class MAML(FewShotMethod):
         self,
         *,
         seed: int = 0,
-        meta_iterations: int = 200,
-        meta_batch: int = 8,
+        max_iterations: int = 1000,
+        meta_batch: int = 4,
         inner_steps: int = 5,
-        inner_lr: float = 0.1,
+        inner_lr: float | None = None,
         outer_lr: float = 1e-3,
-        test_steps: int = 30,
+        test_steps: int | None = None,
+        eval_every: int = 50,
+        patience: int = 4,
+        min_delta: float = 0.005,
+        val_episodes: int = 30,
+        lr_probe: int = 100,
     ) -> None:
         super().__init__(seed=seed)
-        self.meta_iterations = meta_iterations
+        self.max_iterations = max_iterations
         self.meta_batch = meta_batch
         self.inner_steps = inner_steps
         self.inner_lr = inner_lr
         self.outer_lr = outer_lr
         self.test_steps = test_steps
+        self.eval_every = eval_every
+        self.patience = patience
+        self.min_delta = min_delta
+        self.val_episodes = val_episodes
+        self.lr_probe = lr_probe
 
-    def _fit(self, signals: np.ndarray, labels: np.ndarray, features: np.ndarray | None) -> None:
-        small = decimate(signals)
-        self.scaler_ = ChannelScaler().fit(small)
-        x = torch.as_tensor(self.scaler_.transform(small))
-        gen = torch.Generator().manual_seed(self.seed)
-        meta = [p.requires_grad_(True) for p in init_cnn(5, gen, copies=1)]
-        opt = torch.optim.Adam(meta, lr=self.outer_lr)
-        batch = meta_training_episodes(
-            labels, episodes=self.meta_iterations * self.meta_batch, seed=self.seed
-        )
-        way, shot = batch.n_way, batch.k_shot
-        for it in range(self.meta_iterations):
-            sl = slice(it * self.meta_batch, (it + 1) * self.meta_batch)
+    # -- validation -------------------------------------------------------------------
+    def _validate(
+        self, x: torch.Tensor, body: list[torch.Tensor], batches: Sequence[EpisodeBatch], lr: float
+    ) -> np.ndarray:
+        """Validation accuracy after each of the candidate test-step counts."""
+        marks = self._marks()
+        acc = np.zeros(len(marks))
+        for batch in batches:
+            step = episodes_per_chunk(batch.n_way * batch.k_shot, cap=CHUNK, rows=ROWS)
+            preds = np.empty((len(marks), *batch.query.shape), dtype=np.int64)
+            for start in range(0, batch.episodes, step):
+                sl = slice(start, start + step)
+                _, p = _adapt(x, batch.support[sl], body, max(marks), lr, marks, batch.query[sl])
+                preds[:, sl] = np.stack(p)
+            acc += [accuracy(p, batch) for p in preds]
+        return acc / len(batches)
+
+    def _marks(self) -> tuple[int, ...]:
+        return TEST_STEPS if self.test_steps is None else (int(self.test_steps),)
+
+    # -- meta-training ----------------------------------------------------------------
+    def _meta_steps(
+        self,
+        x: torch.Tensor,
+        meta: list[torch.Tensor],
+        opt: torch.optim.Optimizer,
+        batch: EpisodeBatch,
+        lr: float,
+    ) -> None:
+        """One first-order outer step per ``meta_batch`` tasks of ``batch``."""
+        way = batch.n_way
+        for start in range(0, batch.episodes, self.meta_batch):
+            sl = slice(start, start + self.meta_batch)
             s, q, ql = batch.support[sl], batch.query[sl], batch.query_labels[sl]
-            fast = _adapt(x, s, meta, way, shot, self.inner_steps, self.inner_lr)
-            logits = cnn_forward(episode_inputs(x, q), fast)  # (M, B, N)
+            fast, _ = _adapt(x, s, meta, self.inner_steps, lr)
+            logits = cnn_forward(episode_inputs(x, q), fast, LAYERS)  # (M, B, N)
             tgt = torch.as_tensor(ql.T).reshape(-1)
-            loss = torch.nn.functional.cross_entropy(logits.reshape(-1, way), tgt)
+            loss = F.cross_entropy(logits.reshape(-1, way), tgt)
             grads = torch.autograd.grad(loss, fast)
             opt.zero_grad(set_to_none=True)
             # First-order MAML: the adapted weights' gradient, averaged over tasks, is the
@@ -116,7 +208,72 @@ class MAML(FewShotMethod):
             for p, g in zip(meta[:-2], grads[:-2], strict=True):
                 p.grad = g.mean(dim=0, keepdim=True) * len(q)
             opt.step()
-        self.body_ = [p.detach() for p in meta]
+
+    def _fit(self, signals: np.ndarray, labels: np.ndarray, features: np.ndarray | None) -> None:
+        self._cache = PoolCache()
+        small = resample(signals)
+        self.scaler_ = ChannelScaler().fit(small)
+        self.feature_dim_ = LAYERS[-1].c_out
+        x = torch.as_tensor(self.scaler_.transform(small))
+        held = holdout_classes(labels, fraction=HOLDOUT, seed=self.seed)
+        train_idx, val_idx = np.flatnonzero(~held), np.flatnonzero(held)
+        x_train, x_val = x[torch.as_tensor(train_idx)], x[torch.as_tensor(val_idx)]
+        val = validation_episodes(labels[val_idx], seed=self.seed, episodes=self.val_episodes)
+        period = self.eval_every * self.meta_batch
+
+        def tasks(block: int) -> EpisodeBatch:
+            seed = int(np.random.SeedSequence([self.seed, block]).generate_state(1)[0])
+            return meta_training_episodes(labels[train_idx], episodes=period, seed=seed)
+
+        def start(lr: float) -> tuple[list[torch.Tensor], torch.optim.Optimizer]:
+            gen = torch.Generator().manual_seed(self.seed)
+            meta = [p.requires_grad_(True) for p in init_cnn(LAYERS, 5, gen)]
+            return meta, torch.optim.Adam(meta, lr=self.outer_lr)
+
+        # inner_lr: a short probe of every candidate from the same start, on the same tasks.
+        lrs = INNER_LRS if self.inner_lr is None else (float(self.inner_lr),)
+        probes = []
+        probe_blocks = max(1, self.lr_probe // self.eval_every) if len(lrs) > 1 else 0
+        for lr in lrs:
+            meta, opt = start(lr)
+            for block in range(probe_blocks):
+                self._meta_steps(x_train, meta, opt, tasks(block), lr)
+            score = self._validate(x_val, meta, val, lr).max() if probe_blocks else 0.0
+            probes.append((score, meta, opt))
+        best_i = int(np.argmax([p[0] for p in probes]))  # first (smallest) on ties
+        lr = lrs[best_i]
+        self.inner_lr_ = float(lr)
+        self.lr_probe_ = {
+            "inner_lr": list(lrs),
+            "accuracy": [round(float(p[0]), 4) for p in probes],
+        }
+        meta, opt = probes[best_i][1], probes[best_i][2]
+
+        it = probe_blocks * self.eval_every
+        acc = self._validate(x_val, meta, val, lr)
+        curve = [(it, float(acc.max()))]
+        best = (float(acc.max()), it, [p.detach().clone() for p in meta], acc)
+        bad = 0
+        block = probe_blocks
+        while it < self.max_iterations and bad < self.patience:
+            self._meta_steps(x_train, meta, opt, tasks(block), lr)
+            block += 1
+            it += self.eval_every
+            acc = self._validate(x_val, meta, val, lr)
+            curve.append((it, float(acc.max())))
+            log.info("MAML outer step %d: validation accuracy %.4f", it, acc.max())
+            if acc.max() > best[0] + self.min_delta:
+                best = (float(acc.max()), it, [p.detach().clone() for p in meta], acc)
+                bad = 0
+            else:
+                bad += 1
+        self.meta_curve_ = np.asarray(curve, dtype=np.float64)
+        self.iterations_ = it
+        self.plateaued_ = bad >= self.patience
+        self.best_iteration_ = best[1]
+        self.body_ = best[2]
+        marks = self._marks()
+        self.test_steps_ = int(marks[int(np.argmax(best[3]))])
 
     def _predict(
         self,
@@ -125,15 +282,15 @@ class MAML(FewShotMethod):
         query: np.ndarray,
         features: np.ndarray | None,
     ) -> np.ndarray:
-        x = torch.as_tensor(self.scaler_.transform(decimate(signals)))
+        x = self._cache.get(signals, lambda s: torch.as_tensor(self.scaler_.transform(resample(s))))
         _, n_way, k_shot = support.shape
         out = np.empty(query.shape, dtype=np.int64)
         step = episodes_per_chunk(n_way * k_shot, cap=CHUNK, rows=ROWS)
         for start in range(0, support.shape[0], step):
             s = support[start : start + step]
             q = query[start : start + step]
-            fast = _adapt(x, s, self.body_, n_way, k_shot, self.test_steps, self.inner_lr)
+            fast, _ = _adapt(x, s, self.body_, self.test_steps_, self.inner_lr_)
             with torch.no_grad():
-                logits = cnn_forward(episode_inputs(x, q), fast)
+                logits = cnn_forward(episode_inputs(x, q), fast, LAYERS)
                 out[start : start + s.shape[0]] = logits.argmax(dim=-1).T.numpy()
         return out

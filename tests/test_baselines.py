@@ -8,6 +8,7 @@ import pytest
 
 from benchmark.episodes import sample_episodes
 from benchmark.evaluate import evaluate
+from models import cnn, maml
 from models.features import extract
 from models.registry import METHOD_NAMES, make_method
 from tests.synthetic_data import make_dataset
@@ -16,10 +17,10 @@ from tests.synthetic_data import make_dataset
 FAST = {
     "AFO-MLP-ML": dict(meta_iterations=40, adapt_steps=20),
     "Direct-Prot-ML": dict(steps=50),
-    "MAML": dict(meta_iterations=30, test_steps=20),
-    "CWT-ResNet-ML": dict(epochs=4, steps=50),
-    "CNN": dict(steps=40),
-    "BiLSTM": dict(steps=40),
+    "MAML": dict(max_iterations=40, eval_every=20, val_episodes=10, inner_lr=0.1, test_steps=10),
+    "CWT-ResNet-ML": dict(max_epochs=4, steps=50, val_episodes=20),
+    "CNN": dict(steps=30, lr=1e-2),
+    "BiLSTM": dict(steps=30, lr=1e-2),
 }
 BASELINES = [m for m in METHOD_NAMES if m != "AFOP-ML"]
 
@@ -86,3 +87,29 @@ def test_deterministic_no_leak_and_rejects_malformed_support(name, easy):
         dup = batch.support.copy()
         dup[:, 1] = dup[:, 0]
         a.predict_episodes(sig, dup, batch.query)
+
+
+def test_raw_signal_baselines_choose_their_settings_on_training_data(easy):
+    """Without given values, CNN and BiLSTM pick lr and steps on validation episodes of the
+    training split, MAML picks its inner rate and test steps and stops early on held-out
+    training classes; each records the evidence."""
+    data, _ = easy
+    train, _ = _split(data.label)
+    sig, lab = data.signals[train], data.label[train]
+    for name in ("CNN", "BiLSTM"):
+        m = make_method(name, seed=1).fit(sig, lab)
+        assert m.lr_ in cnn.LRS and m.steps_ in cnn.STEPS
+        acc = np.asarray(m.selection_["accuracy"])
+        assert acc.shape == (len(cnn.LRS), len(cnn.STEPS))
+        i, j = cnn.LRS.index(m.lr_), cnn.STEPS.index(m.steps_)
+        assert acc[i, j] == acc.max()
+    m = make_method("MAML", seed=1, max_iterations=60, eval_every=20, lr_probe=20, patience=1)
+    m.fit(sig, lab)
+    curve = m.meta_curve_
+    assert curve.ndim == 2 and curve.shape[1] == 2 and np.all(np.diff(curve[:, 0]) > 0)
+    assert m.inner_lr_ in maml.INNER_LRS and m.test_steps_ in maml.TEST_STEPS
+    assert m.best_iteration_ in curve[:, 0] and m.iterations_ == curve[-1, 0]
+    kept = curve[curve[:, 0] == m.best_iteration_, 1][0]
+    assert kept >= curve[:, 1].max() - m.min_delta
+    # patience=1: training stops at the first evaluation without a gain (or at the cap).
+    assert m.plateaued_ or m.iterations_ >= m.max_iterations
