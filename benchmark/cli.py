@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from benchmark import commands as benchmark_commands
 from shapes import cli as shapes_cli
 from synth import cli as synth_cli
+from tactile_synth.threads import configure as configure_threads
 
 _REGISTRARS = (shapes_cli.register, synth_cli.register, benchmark_commands.register)
 
@@ -35,6 +36,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
+        if "threads" in args:  # the heavy commands: size every thread pool before the work
+            configure_threads(args.threads)
         return int(args.handler(args) or 0)
     except (ValueError, FileExistsError, FileNotFoundError) as exc:
         # Bad input is the user's to fix: one line naming the problem, no traceback.

@@ -4,16 +4,15 @@ One task = one storage chunk: it simulates its trials, writes its own chunk of t
 store and marks it done (see :mod:`synth.store`). Tasks depend only on the configuration and
 their chunk index, so the bytes are the same for any worker count, executor or resume
 history. Locally the tasks run in this process (two chunks at a time on threads, each
-rolling out on MuJoCo threads over all cores: one chunk's Python sensor chain and storage
-overlap the other's physics) or in a process pool; ``executor=`` accepts any
-``concurrent.futures.Executor``, e.g. a Dask client's.
+rolling out on MuJoCo threads, as many as :mod:`tactile_synth.threads` allots: one chunk's
+Python sensor chain and storage overlap the other's physics) or in a process pool;
+``executor=`` accepts any ``concurrent.futures.Executor``, e.g. a Dask client's.
 """
 
 from __future__ import annotations
 
 import concurrent.futures as cf
 import multiprocessing
-import os
 import signal
 import sys
 import threading
@@ -25,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from shapes.validation import check_int
+from tactile_synth.threads import init_worker, rollout_threads, worker_threads
 
 from . import store
 from .presets import GenerationConfig, plan, preset
@@ -116,8 +116,14 @@ class _StopRequests:
             signal.signal(signal.SIGINT, self._previous)
 
 
-def _ignore_sigint() -> None:  # pool workers: the parent decides when to stop
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+def _init_worker(threads: int) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when to stop
+    init_worker(threads)  # this worker's share of the CPUs, for every thread pool
+
+
+def _run_chunk_on_worker(*args: Any) -> tuple[int, int, float]:
+    init_worker(args[4])  # a cluster worker: its pools get this task's share first
+    return run_chunk(*args)
 
 
 def _resolve_config(config: GenerationConfig | str | None, out: Path, resume: bool):
@@ -199,13 +205,14 @@ def generate(
 
     workers: local processes (default 1: this process, two chunk tasks at a time, the
     fastest on one machine; N > 1: a pool of N processes). threads: MuJoCo rollout threads
-    per task (default: all cores in this process, 1 in a pool or on an executor).
-    executor: any ``concurrent.futures.Executor`` (e.g. a Dask client's
-    ``get_executor()``); its workers must see ``out``. resume: complete an interrupted
+    per task (default: ``tactile_synth.threads.rollout_threads()`` in this process; in a
+    pool, each process's share of the CPUs; 1 on an executor); in a pool or on an executor
+    it sizes the worker's BLAS/OpenMP pools too. executor: any
+    ``concurrent.futures.Executor`` (e.g. a Dask client's ``get_executor()``); its workers
+    must see ``out``. resume: complete an interrupted
     store without recomputing its finished chunks. Returns ``out``.
     """
     out = Path(out)
-    ncpu = os.cpu_count() or 1
     workers = 1 if workers is None else check_int("workers", workers, minimum=1)
     if threads is not None:
         check_int("threads", threads, minimum=1)
@@ -217,24 +224,26 @@ def generate(
     done_trials = len(trials) - sum(min(c, len(trials) - k * c) for k in todo)
 
     owned: cf.Executor | None = None
+    task = run_chunk
     if executor is None:
         workers = max(min(workers, len(todo)), 1)  # no idle processes for a small run
         if workers == 1:
             # Two tasks overlap: while one runs its sensor chain and writes (Python, GIL),
             # the other's rollout keeps the cores busy (measured: 100% of the raw rate).
             owned = executor = cf.ThreadPoolExecutor(max_workers=2, thread_name_prefix="chunk")
-            threads = threads or ncpu
+            threads = threads or rollout_threads()
         else:
             # spawn: MuJoCo/zarr threads in this process must not be forked, and spawned
             # workers are our own children (their CPU time and RSS show in getrusage).
             ctx = multiprocessing.get_context("spawn")
+            threads = threads or worker_threads(workers)
             owned = executor = cf.ProcessPoolExecutor(
-                max_workers=workers, mp_context=ctx, initializer=_ignore_sigint
+                max_workers=workers, mp_context=ctx, initializer=_init_worker, initargs=(threads,)
             )
-            threads = threads or 1
         in_flight = 2 * workers
     else:
         threads = threads or 1
+        task = _run_chunk_on_worker
         in_flight = 2 * max(workers, 1)
 
     from tqdm import tqdm
@@ -256,7 +265,7 @@ def generate(
                 # Bounded submission keeps memory flat and lets Ctrl-C stop quickly.
                 for k in queue:
                     args = (str(out), k, trials.specs(k * c, (k + 1) * c), config.synth, threads)
-                    pending.add(executor.submit(run_chunk, *args, simulator))
+                    pending.add(executor.submit(task, *args, simulator))
                     stop.check()
                     if len(pending) >= in_flight:
                         break
