@@ -78,8 +78,9 @@ class ThreadSettings:
     ----------
     cpus: CPUs this process may use (:func:`available_cpus`).
     workers: processes the automatic budget is divided among (1 unless a pool shares it).
-    threads: the budget; ``source`` says where it comes from; ``auto``: derived from the
-    CPUs (no ``--threads`` or environment variable chose it).
+    threads: the budget. source: what chose it: ``"--threads"`` (or ``configure(threads=N)``),
+    ``"TACTILE_SYNTH_THREADS"`` or ``"OMP_NUM_THREADS"`` (the environment), or ``"auto"``
+    (``cpus`` divided by ``workers``).
     torch_intra_op, torch_inter_op, blas, openmp, rollout: each pool's thread count
     (``rollout``: MuJoCo rollout threads of one simulation task).
     wait_policy: ``OMP_WAIT_POLICY`` in effect (``PASSIVE`` unless the user chose).
@@ -89,7 +90,6 @@ class ThreadSettings:
     workers: int
     threads: int
     source: str
-    auto: bool
     torch_intra_op: int
     torch_inter_op: int
     blas: int
@@ -212,21 +212,20 @@ def _resolve(threads: int | None, workers: int) -> ThreadSettings:
     blas_user = [n for n in (_env_count(v) for v in _BLAS_VARS) if n is not None]
     env = None
     if threads is not None:
-        budget, source, blas = threads, "set explicitly (--threads)", threads
+        budget, source, blas = threads, "--threads", threads
     else:
         env = next(((v, n) for v in (THREADS_ENV, _OMP) if (n := _env_count(v)) is not None), None)
         if env is not None:
-            budget, source = env[1], f"${env[0]}"
+            budget, source = env[1], env[0]
         else:
             budget = max(1, cpus // workers)
-            source = f"{cpus} usable CPUs / {workers} worker{'s' * (workers > 1)}"
+            source = "auto"
         blas = min(blas_user) if blas_user else budget
     return ThreadSettings(
         cpus=cpus,
         workers=workers,
         threads=budget,
         source=source,
-        auto=threads is None and env is None,
         torch_intra_op=budget,
         torch_inter_op=1,
         blas=blas,
@@ -307,8 +306,12 @@ def thread_settings() -> dict[str, Any]:
 def describe() -> str:
     """One line for a report: every pool's thread count and how it was chosen."""
     s = settings()
+    if s.source == "auto":
+        how = f"{s.cpus} usable CPUs / {s.workers} worker{'s' * (s.workers > 1)}"
+    else:
+        how = "set by --threads" if s.source == "--threads" else f"from ${s.source}"
     return (
-        f"{s.threads} per process ({s.source}): torch intra-op {s.torch_intra_op}, "
+        f"{s.threads} per process ({how}): torch intra-op {s.torch_intra_op}, "
         f"inter-op {s.torch_inter_op}; BLAS {s.blas}; OpenMP {s.openmp}; "
         f"MuJoCo rollout {s.rollout}; OMP_WAIT_POLICY={s.wait_policy}"
     )
@@ -324,7 +327,7 @@ def worker_threads(workers: int) -> int:
     the environment's count if set, else :func:`available_cpus` divided among them."""
     _check_count("workers", workers)
     s = settings()
-    return max(1, s.cpus // workers) if s.auto else s.threads
+    return max(1, s.cpus // workers) if s.source == "auto" else s.threads
 
 
 def init_worker(threads: int) -> None:
