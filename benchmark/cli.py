@@ -20,6 +20,7 @@ from collections.abc import Sequence
 from benchmark import commands as benchmark_commands
 from shapes import cli as shapes_cli
 from synth import cli as synth_cli
+from tactile_synth.threads import configure as configure_threads
 
 _REGISTRARS = (shapes_cli.register, synth_cli.register, benchmark_commands.register)
 
@@ -115,6 +116,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args.debug = debug
     args.argv = argv  # lets a command repeat itself in advice
     try:
+        if "threads" in args:  # the heavy commands: size every thread pool before the work
+            configure_threads(args.threads)
         return int(args.handler(args) or 0)
     except KeyboardInterrupt:
         print(f"tactile-synth {args.command}: interrupted", file=sys.stderr)

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import argparse
 
+from tactile_synth.threads import HELP as THREADS_HELP
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add this package's sub-commands; each sets ``handler=callable(args) -> int``."""
@@ -48,6 +50,7 @@ def _register_benchmark(subparsers: argparse._SubParsersAction) -> None:
         action="store_true",
         help="replace the contents of a non-empty DIR that tactile-synth did not write",
     )
+    p.add_argument("--threads", type=int, metavar="N", help=THREADS_HELP)
     p.set_defaults(handler=_benchmark)
 
 
@@ -84,7 +87,7 @@ def _register_run(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--quick", action="store_true", help="small datasets, fewer episodes (<5 min)")
     p.add_argument("--seed", type=int, default=0, help="seed of data and episodes (default 0)")
     p.add_argument(
-        "--workers", type=int, help="generation processes (default 1: rollout threads on all cores)"
+        "--workers", type=int, help="generation processes (default 1; N > 1 share the CPUs)"
     )
     p.add_argument(
         "--overwrite",
@@ -92,6 +95,7 @@ def _register_run(subparsers: argparse._SubParsersAction) -> None:
         help="replace the contents of a non-empty DIR that tactile-synth did not write "
         "(DIR/data and DIR/checkpoints are kept)",
     )
+    p.add_argument("--threads", type=int, metavar="N", help=THREADS_HELP)
     p.set_defaults(handler=_run)
 
 

@@ -384,6 +384,8 @@ def render(records: Sequence[dict], meta: Mapping[str, Any]) -> str:
         lines.append(f"- methods: {', '.join(meta['methods'])}")
     if meta.get("episodes"):
         lines.append(f"- episode budgets: {meta['episodes']}")
+    if meta.get("threads"):
+        lines.append(f"- thread settings: {meta['threads']}")
     for note in meta.get("notes", ()):
         lines.append(f"- {note}")
     lines.append("")

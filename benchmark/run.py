@@ -25,6 +25,7 @@ import numpy as np
 from models.registry import METHOD_NAMES
 from shapes.validation import check_int
 from synth import Dataset
+from tactile_synth.threads import describe as describe_threads
 
 from . import figures
 from .protocols.generalisation import check_methods, closed_set_reference, dataset_features
@@ -239,6 +240,7 @@ def benchmark_all(
         "perturbed": dataset_summary(perturbed, perturbed_path),
         "methods": list(methods),
         "episodes": budget.describe(methods),
+        "threads": describe_threads(),
         "cross_shape_folds": [list(f) for f in CROSS_SHAPE_FOLDS],
         "figures": figs,
         "figure_notes": figure_notes(records, artefacts, budget, seed),

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from models.registry import METHOD_NAMES
 from shapes.validation import check_choice, check_int
+from tactile_synth.threads import describe as describe_threads
 
 from . import figures
 from .guards import check_episodes, check_perturbation_pair
@@ -89,6 +90,7 @@ def benchmark_protocol(
             "perturbed": None if perturbed is None else dataset_summary(perturbed, perturbed_path),
             "methods": list(methods),
             "episodes": f"{episodes} per cell",
+            "threads": describe_threads(),
             "figures": made,
             "notes": [f"protocol {protocol} only"],
         }

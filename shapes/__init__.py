@@ -17,6 +17,7 @@ imports build123d. Every function takes an optional ``dims`` (default
 ``SPECIMEN``); an unknown name raises ``ValueError`` listing the valid names.
 """
 
+import tactile_synth.threads  # noqa: F401  (first: sizes thread pools before numpy/torch load)
 from shapes.cad import solid
 from shapes.dims import SPECIMEN, SpecimenDims
 from shapes.meshes import convex_pieces, mesh

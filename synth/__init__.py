@@ -1,5 +1,7 @@
 """MuJoCo simulation of the tactile finger, its virtual sensor chain, and dataset I/O."""
 
+import tactile_synth.threads  # noqa: F401  (first: sizes thread pools before numpy/torch load)
+
 from .config import PVDF, Acquisition, Finger, Motion, StrainGauge, SynthConfig, Variability
 from .dataset import Dataset
 from .generation import generate

@@ -11,6 +11,8 @@ from typing import Any
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
+    from tactile_synth.threads import HELP as THREADS_HELP
+
     from .export import EXPORT_FORMATS
     from .presets import PRESETS
 
@@ -41,10 +43,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--workers",
         type=int,
-        help="local processes (default 1: this process, rollout threads on all cores; "
-        "N > 1: a pool of N processes)",
+        help="local processes (default 1: this process; N > 1: a pool of N processes "
+        "sharing the CPUs)",
     )
-    p.add_argument("--threads", type=int, help="MuJoCo rollout threads per task")
+    p.add_argument("--threads", type=int, metavar="N", help=THREADS_HELP)
     p.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler, e.g. tcp://host:8786")
     mode = p.add_mutually_exclusive_group()
     mode.add_argument(

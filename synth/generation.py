@@ -5,9 +5,9 @@ One task = one storage chunk: it simulates its trials, writes its own chunk of t
 store and marks it done (see :mod:`synth.store`). Tasks depend only on the configuration and
 their chunk index, so the bytes are the same for any worker count, executor, resume or
 repair history. Locally the tasks run in this process (two chunks at a time on threads, each
-rolling out on MuJoCo threads over all cores: one chunk's Python sensor chain and storage
-overlap the other's physics) or in a process pool; ``executor=`` accepts any
-``concurrent.futures.Executor``, e.g. a Dask client's.
+rolling out on MuJoCo threads, as many as :mod:`tactile_synth.threads` allots: one chunk's
+Python sensor chain and storage overlap the other's physics) or in a process pool;
+``executor=`` accepts any ``concurrent.futures.Executor``, e.g. a Dask client's.
 
 A writer holds the store's lock (:func:`synth.store.locked`) from its first check to its
 last write. Every check runs before anything on disk changes. A new store is built beside
@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from shapes.validation import check_int
+from tactile_synth.threads import available_cpus, init_worker, rollout_threads, worker_threads
 
 from . import atomic, store
 from .presets import GenerationConfig, plan, preset
@@ -137,8 +138,14 @@ class _StopRequests:
             signal.signal(signal.SIGINT, self._previous)
 
 
-def _ignore_sigint() -> None:  # pool workers: the parent decides when to stop
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+def _init_worker(threads: int) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when to stop
+    init_worker(threads)  # this worker's share of the CPUs, for every thread pool
+
+
+def _run_chunk_on_worker(*args: Any) -> tuple[int, int, float]:
+    init_worker(args[4])  # a cluster worker: its pools get this task's share first
+    return run_chunk(*args)
 
 
 # -- checks ---------------------------------------------------------------------------------
@@ -217,16 +224,16 @@ def check_resources(config: GenerationConfig, out: Path, *, workers: int, local:
 
 
 def check_parallelism(workers: int, threads: int | None, *, local: bool) -> None:
-    """Refuse more local processes or rollout threads than the cores can use."""
-    ncpu = os.cpu_count() or 1
+    """Refuse more local processes or rollout threads than the usable CPUs can serve."""
+    ncpu = available_cpus()
     if local and workers > _PER_CORE * ncpu:
         raise ValueError(
-            f"--workers {workers}: this machine has {ncpu} cores; more than "
+            f"--workers {workers}: this process may use {ncpu} CPUs; more than "
             f"{_PER_CORE * ncpu} processes only compete for them"
         )
     if threads is not None and local and threads > _PER_CORE * ncpu:
         raise ValueError(
-            f"--threads {threads}: this machine has {ncpu} cores; more than "
+            f"--threads {threads}: this process may use {ncpu} CPUs; more than "
             f"{_PER_CORE * ncpu} rollout threads only compete for them"
         )
 
@@ -412,17 +419,17 @@ def generate(
 
     workers: local processes (default 1: this process, two chunk tasks at a time, the
     fastest on one machine; N > 1: a pool of N processes). threads: MuJoCo rollout threads
-    per task (default: all cores in this process, 1 in a pool or on an executor).
-    executor: any ``concurrent.futures.Executor`` (e.g. a Dask client's
-    ``get_executor()``); its workers must see ``out``. resume: complete an interrupted
-    store (or an interrupted overwrite) without recomputing its finished chunks; it refuses
-    a store with damaged chunks unless ``repair``, which re-simulates exactly those.
-    overwrite: build a new store beside ``out`` and put it in place when complete.
-    Returns ``out``. Raises :class:`synth.store.DatasetLocked` at once if another process
-    is writing ``out``.
+    per task (default: ``tactile_synth.threads.rollout_threads()`` in this process; in a
+    pool, each process's share of the CPUs; 1 on an executor); in a pool or on an executor
+    it sizes the worker's BLAS/OpenMP pools too. executor: any
+    ``concurrent.futures.Executor`` (e.g. a Dask client's ``get_executor()``); its workers
+    must see ``out``. resume: complete an interrupted store (or an interrupted overwrite)
+    without recomputing its finished chunks; it refuses a store with damaged chunks unless
+    ``repair``, which re-simulates exactly those. overwrite: build a new store beside
+    ``out`` and put it in place when complete. Returns ``out``. Raises
+    :class:`synth.store.DatasetLocked` at once if another process is writing ``out``.
     """
     out = Path(out)
-    ncpu = os.cpu_count() or 1
     workers = 1 if workers is None else check_int("workers", workers, minimum=1)
     if threads is not None:
         check_int("threads", threads, minimum=1)
@@ -448,7 +455,7 @@ def generate(
                 store.clear_chunks(job.target, job.clear)
             if job.rewrite:
                 store.rewrite_plan(job.target, job.rewrite)
-            _run(job, workers, threads, executor, ncpu, progress, simulator)
+            _run(job, workers, threads, executor, progress, simulator)
             if job.replacing:
                 atomic.replace_dir(job.target, out)
     except BaseException:
@@ -466,7 +473,6 @@ def _run(
     workers: int,
     threads: int | None,
     executor: cf.Executor | None,
-    ncpu: int,
     progress: bool,
     simulator: Simulator | None,
 ) -> None:
@@ -478,24 +484,26 @@ def _run(
         return
 
     owned: cf.Executor | None = None
+    task = run_chunk
     if executor is None:
         workers = max(min(workers, len(todo)), 1)  # no idle processes for a small run
         if workers == 1:
             # Two tasks overlap: while one runs its sensor chain and writes (Python, GIL),
             # the other's rollout keeps the cores busy (measured: 100% of the raw rate).
             owned = executor = cf.ThreadPoolExecutor(max_workers=2, thread_name_prefix="chunk")
-            threads = threads or ncpu
+            threads = threads or rollout_threads()
         else:
             # spawn: MuJoCo/zarr threads in this process must not be forked, and spawned
             # workers are our own children (their CPU time and RSS show in getrusage).
             ctx = multiprocessing.get_context("spawn")
+            threads = threads or worker_threads(workers)
             owned = executor = cf.ProcessPoolExecutor(
-                max_workers=workers, mp_context=ctx, initializer=_ignore_sigint
+                max_workers=workers, mp_context=ctx, initializer=_init_worker, initargs=(threads,)
             )
-            threads = threads or 1
         in_flight = 2 * workers
     else:
         threads = threads or 1
+        task = _run_chunk_on_worker
         in_flight = 2 * max(workers, 1)
 
     from tqdm import tqdm
@@ -519,7 +527,7 @@ def _run(
                 for k in queue:
                     specs = trials.specs(k * c, (k + 1) * c)
                     args = (target, k, specs, config.synth, threads, simulator, job.store_id)
-                    pending.add(executor.submit(run_chunk, *args))
+                    pending.add(executor.submit(task, *args))
                     stop.check()
                     if len(pending) >= in_flight:
                         break

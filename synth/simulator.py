@@ -24,7 +24,6 @@ bit-identical whatever batch, thread or process simulates it.
 from __future__ import annotations
 
 import math
-import os
 import time
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -37,6 +36,7 @@ from mujoco import rollout
 
 import shapes
 from shapes import SPECIMEN
+from tactile_synth.threads import rollout_threads
 
 from . import contact, sensors, texture
 from . import scene as scene_mod
@@ -414,7 +414,8 @@ def simulate_batch(
 ) -> list[Trial]:
     """Simulate many trials through ``mujoco.rollout``; results in the order of ``specs``.
 
-    ``threads``: rollout threads (default: all cores). Results do not depend on it.
+    ``threads``: rollout threads (default: ``tactile_synth.threads.rollout_threads()``, this
+    process's thread budget). Results do not depend on it.
     """
     config = _check_config(config)
     specs = list(specs)
@@ -422,7 +423,7 @@ def simulate_batch(
         if not isinstance(s, TrialSpec):
             raise ValueError(f"specs[{i}] must be a TrialSpec; got {type(s).__name__}")
     if threads is None:
-        threads = os.cpu_count() or 1
+        threads = rollout_threads()
     if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
         raise ValueError(f"threads must be an integer >= 1; got {threads!r}")
     # Rollout batches share a scene and a length: group by shape and speed.
@@ -481,7 +482,7 @@ def raw_rollout(
     or storage. Returns the rollout wall seconds.
     """
     config = _check_config(config)
-    threads = threads or os.cpu_count() or 1
+    threads = threads or rollout_threads()
     by_shape: dict[tuple[str, float], list[Plan]] = {}
     for s in specs:
         by_shape.setdefault((s.shape, s.speed_mm_s), []).append(plan(s, config))

@@ -3,5 +3,9 @@ marked ``@pytest.mark.slow`` (CI runs them too)."""
 
 import os
 
-# Keep matplotlib headless and BLAS single-threaded-deterministic in tests.
+# Before any test module loads numpy or torch: thread pools sized to the CPUs this
+# process may use, idle threads sleeping (so the suite keeps its pace beside other jobs).
+import tactile_synth.threads  # noqa: F401
+
+# Keep matplotlib headless.
 os.environ.setdefault("MPLBACKEND", "Agg")

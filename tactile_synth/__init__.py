@@ -1,0 +1,11 @@
+"""Process-wide settings shared by every tactile-synth package.
+
+This package sits to the left of ``shapes``, ``synth``, ``models`` and ``benchmark``, so
+all four may import it. It imports only the standard library, so importing it first
+(each package's ``__init__`` does) is cheap and happens before numpy, scipy,
+scikit-learn or torch load their thread pools (see :mod:`tactile_synth.threads`).
+"""
+
+from . import threads
+
+__all__ = ["threads"]
