@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from benchmark.protocols import cross_material, cross_shape, generalisation, perturbation
+from benchmark.results import TIMING_FIELDS
 from benchmark.splits import CROSS_SHAPE_FOLDS, condition_name
 from models.base import FewShotMethod
 from synth import CLASS_NAMES, MATERIAL_NAMES
@@ -28,6 +29,9 @@ ACCURACY_FIELDS = {
     "ci95",
     "pretrain_s",
     "adapt_ms_per_episode",
+    "latency_ms_per_episode",
+    "latency_with_features_ms_per_episode",
+    "latency_episodes",
     "feature_dim",
 }
 SELECTION_FIELDS = {"record", "protocol", "fold", "D", "pvdf_share", "sg_share"}
@@ -173,10 +177,7 @@ def test_same_seed_same_records_with_real_afop(data):
     b = cross_shape.run(data, methods=["AFOP-ML"], episodes=15, seed=3, reference=True)
 
     def strip(rs):
-        return [
-            {k: v for k, v in r.items() if k not in ("pretrain_s", "adapt_ms_per_episode")}
-            for r in rs
-        ]
+        return [{k: v for k, v in r.items() if k not in TIMING_FIELDS} for r in rs]
 
     assert strip(a) == strip(b)
     _check_schema(a)

@@ -207,7 +207,8 @@ def pool_folds(pairs: Sequence[tuple[dict, np.ndarray]]) -> list[dict]:
     """Across-fold summary records (``fold=None``), one per (condition, method, way): mean
     and ``ci95 = 1.96 * std / sqrt(E)`` over the per-episode accuracies of all folds
     together (``pairs`` = per-fold record with its ``(E,)`` per-episode accuracies).
-    Timing fields are the mean over folds, ``feature_dim`` the median.
+    Timing fields are the mean over folds (latencies over the folds that measured them),
+    ``feature_dim`` the median.
     """
     groups: dict[tuple, list[tuple[dict, np.ndarray]]] = {}
     for r, acc in pairs:
@@ -225,10 +226,20 @@ def pool_folds(pairs: Sequence[tuple[dict, np.ndarray]]) -> list[dict]:
             query=int(min(r["query"] for r, _ in rs)),
             pretrain_s=float(np.mean([r["pretrain_s"] for r, _ in rs])),
             adapt_ms_per_episode=float(np.mean([r["adapt_ms_per_episode"] for r, _ in rs])),
+            latency_ms_per_episode=_mean_or_none([r["latency_ms_per_episode"] for r, _ in rs]),
+            latency_with_features_ms_per_episode=_mean_or_none(
+                [r["latency_with_features_ms_per_episode"] for r, _ in rs]
+            ),
+            latency_episodes=int(sum(r["latency_episodes"] for r, _ in rs)),
             feature_dim=_median_or_none([r["feature_dim"] for r, _ in rs]),
         )
         out.append(pooled)
     return out
+
+
+def _mean_or_none(values: Sequence[float | None]) -> float | None:
+    v = [x for x in values if x is not None]
+    return float(np.mean(v)) if v else None
 
 
 def _median_or_none(values: Sequence[int | None]) -> int | None:
