@@ -44,7 +44,9 @@ class Spy(FewShotMethod):
     log: ClassVar[list[dict]] = []
 
     def _fit(self, signals, labels, features):
-        Spy.log.append({"op": "fit", "labels": labels.copy(), "rows": _row_keys(signals)})
+        Spy.log.append(
+            {"op": "fit", "labels": labels.copy(), "rows": _row_keys(signals), "seed": self.seed}
+        )
         self.D_ = 2  # what AFOP-ML exposes for selection records: a PVDF and an SG feature
         self.selected_ = np.array([0, 100])
 
@@ -157,6 +159,9 @@ def test_perturbation_fits_on_nominal_training_half(data, spy):
     )
     fits = [e for e in spy.log if e["op"] == "fit"]
     assert len(fits) == 1  # one fit, tested on every condition
+    # ... and it is the closed-set fit (same seed), so its D is the closed-set D.
+    assert fits[0]["seed"] == perturbation.closed_set_fit_seed(0)
+    assert perturbation.closed_set_fit_seed(0) == generalisation.child_seed(0, "closed-set", "fit")
     train_idx, _test_idx = generalisation.closed_set_halves(data, 0)
     assert fits[0]["rows"] == _row_keys(data.signals[train_idx])
     assert not fits[0]["rows"] & _row_keys(both.signals)
