@@ -11,11 +11,20 @@ Indicator definitions (computed on the 2-D t-SNE embedding, as the paper's figur
   trial-weighted mean over shapes. ``mix_sil = 1 - clip(s, 0, 1)``: 1 when materials do
   not form sub-clusters inside a shape cluster (s <= 0), 0 when every material is a
   perfectly separated sub-cluster (s = 1). Higher = more material-invariant.
-- ``dgi`` (cross-material/same-material neighbour ratio): over all trials, among each
-  trial's ``k = 10`` nearest neighbours in the embedding (itself excluded), the total
-  count of neighbours of a *different material* divided by the total count of the *same
-  material* (denominator floored at 1). With 3 balanced materials, random mixing gives
-  about 2; 0 means materials are fully separated; > 1 indicates strong mixing.
+- ``dgi`` (Distance to Geometric Impostor): for each trial, ``b`` = distance to its
+  nearest *geometric impostor* (a trial of the same material but a different shape) and
+  ``a`` = distance to its nearest trial of the same shape but a different material;
+  ``dgi`` is the median over trials of ``b / a``. It compares the nearest cross-material
+  neighbour of a trial's own geometry with the nearest same-material neighbour of
+  another geometry: ``dgi > 1`` means a trial's other-material twins lie nearer than
+  anything sharing its material (materials mix inside the shape clusters; geometry, not
+  material, organises the space), ``dgi < 1`` means material pulls trials together more
+  than geometry does. Scale-free; equal to (shape-cluster separation) / (within-cluster
+  spacing) when materials are randomly mixed inside compact, well-separated shape
+  clusters. It does not see material sub-clusters inside a shape cluster as long as
+  they are nearer to each other than to other shapes: that is what ``mix_sil`` measures.
+  Trials without a same-shape other-material or a same-material other-shape trial are
+  skipped.
 """
 
 from __future__ import annotations
@@ -26,8 +35,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from shapes.validation import check_int
-
-DGI_NEIGHBOURS: int = 10
 
 
 def sensor_shares(selected: Sequence[int], feature_names: Sequence[str]) -> tuple[float, float]:
@@ -113,15 +120,23 @@ def mixing_silhouette(emb: np.ndarray, shape: np.ndarray, material: np.ndarray) 
     return float(1.0 - np.clip(total / weight, 0.0, 1.0))
 
 
-def cross_same_ratio(emb: np.ndarray, material: np.ndarray, *, k: int = DGI_NEIGHBOURS) -> float:
-    """Cross-material / same-material count among each trial's ``k`` nearest neighbours."""
+def geometric_impostor_ratio(emb: np.ndarray, shape: np.ndarray, material: np.ndarray) -> float:
+    """DGI: median over trials of (distance to the nearest same-material trial of another
+    shape) / (distance to the nearest same-shape trial of another material). NaN when no
+    trial has both kinds of neighbour."""
+    shape = np.asarray(shape)
+    material = np.asarray(material)
     d = _pairwise(np.asarray(emb, dtype=np.float64))
-    k = min(k, d.shape[0] - 1)
-    # Stable sort: ties broken by index, so the result is deterministic.
-    nn = np.argsort(d, axis=1, kind="stable")[:, :k]
-    same = int(np.sum(material[nn] == material[:, None]))
-    cross = nn.size - same
-    return float(cross / max(same, 1))
+    same_shape = shape[:, None] == shape[None, :]
+    same_material = material[:, None] == material[None, :]
+    a = np.where(same_shape & ~same_material, d, np.inf).min(axis=1)
+    b = np.where(same_material & ~same_shape, d, np.inf).min(axis=1)
+    ok = np.isfinite(a) & np.isfinite(b) & ((a > 0) | (b > 0))
+    if not ok.any():
+        return float("nan")
+    with np.errstate(divide="ignore"):
+        ratio = b[ok] / a[ok]  # a == 0 < b: a twin on top of the trial, ratio inf
+    return float(np.median(ratio))
 
 
 def tsne_indicators(emb: np.ndarray, shape: np.ndarray, material: np.ndarray) -> TsneIndicators:
@@ -131,5 +146,5 @@ def tsne_indicators(emb: np.ndarray, shape: np.ndarray, material: np.ndarray) ->
     return TsneIndicators(
         nn1_shape_accuracy=nn1_accuracy(emb, shape),
         mix_sil=mixing_silhouette(emb, shape, material),
-        dgi=cross_same_ratio(emb, material),
+        dgi=geometric_impostor_ratio(emb, shape, material),
     )

@@ -8,6 +8,14 @@ same classes. Per episode: a copy of the MLP and the head ``(W, b)`` (W initiali
 the projected prototypes) are fine-tuned together on the support set (cross-entropy +
 ``lam`` entropy, Adam); queries are only forwarded. All episodes of a chunk are one
 batched problem: per-episode weights are ``(E, ...)`` tensors multiplied with ``bmm``.
+
+Hyper-parameters: the 64/32 widths are the paper's; the episodic adaptation uses the
+paper's head settings (250 Adam steps at lr 1.5e-3, entropy weight 0.10), as AFOP-ML does.
+``alpha``, ``meta_iterations`` and ``meta_lr`` default to the values ``scripts/tune.py``
+chose on validation data of the closed-set training half (:mod:`models.tuned`);
+``meta_batch`` = 16 tasks per meta-step is a fixed compute budget (not tuned).
+``ncfs_lam_n`` / ``ncfs_max_iter`` are passed to the AFOP-ML feature optimisation (None:
+AFOP-ML's defaults).
 """
 
 from __future__ import annotations
@@ -22,6 +30,7 @@ from .base import FewShotMethod
 from .episodes import meta_training_episodes
 from .features import pool_of
 from .prototypes import EPISODE_CHUNK, normalise
+from .tuned import tuned
 
 HIDDEN = (64, 32)
 
@@ -42,26 +51,34 @@ class AFOMLPML(FewShotMethod):
         self,
         *,
         seed: int = 0,
-        meta_iterations: int = 300,
+        meta_iterations: int | None = None,
         meta_batch: int = 16,
-        meta_lr: float = 1e-3,
-        adapt_steps: int = 50,
-        adapt_lr: float = 1e-3,
+        meta_lr: float | None = None,
+        adapt_steps: int = 250,
+        adapt_lr: float = 1.5e-3,
         lam: float = 0.10,
-        alpha: float = 10.0,
+        alpha: float | None = None,
+        ncfs_lam_n: float | str | None = None,
+        ncfs_max_iter: int | None = None,
     ) -> None:
         super().__init__(seed=seed)
-        self.meta_iterations = meta_iterations
+        self.ncfs_lam_n = ncfs_lam_n  # None: AFOP-ML's own defaults
+        self.ncfs_max_iter = ncfs_max_iter
+        self.meta_iterations = (
+            tuned(self.name, "meta_iterations") if meta_iterations is None else meta_iterations
+        )
         self.meta_batch = meta_batch
-        self.meta_lr = meta_lr
+        self.meta_lr = tuned(self.name, "meta_lr") if meta_lr is None else meta_lr
         self.adapt_steps = adapt_steps
         self.adapt_lr = adapt_lr
         self.lam = lam
-        self.alpha = alpha
+        self.alpha = tuned(self.name, "alpha") if alpha is None else alpha
 
     def _fit(self, signals: np.ndarray, labels: np.ndarray, features: np.ndarray | None) -> None:
         raw = pool_of(signals, features)
-        self.afop_ = AFOPML(seed=self.seed).fit(signals, labels, features=raw)
+        self.afop_ = AFOPML(
+            seed=self.seed, ncfs_lam_n=self.ncfs_lam_n, ncfs_max_iter=self.ncfs_max_iter
+        ).fit(signals, labels, features=raw)
         self.D_ = self.afop_.D_
         self.selected_ = self.afop_.selected_
         self.feature_dim_ = HIDDEN[-1]

@@ -1,9 +1,19 @@
 """AFOP-ML (paper Sec. IV): automatic feature optimisation + adapted cosine prototypes.
 
 Offline (``fit``, source classes only): the 386-feature pool, z-scored with training
-statistics; NCA feature-selection weights rank the features; the D-scan picks the top-D
-size. Episode time (``predict_episodes``): the top-D z-scored features of the pool feed
-the cosine-softmax prototypical head, adapted on each support set (all episodes batched).
+statistics; NCA feature-selection weights (fscnca, :mod:`models.ncfs`) rank the features;
+the D-scan picks the top-D size. Episode time (``predict_episodes``): the top-D z-scored
+features of the pool feed the cosine-softmax prototypical head, adapted on each support
+set (all episodes batched).
+
+Where each hyper-parameter comes from: ``steps`` = 250, ``lr`` = 1.5e-3 and ``lam`` = 0.10
+are the paper's (Sec. IV-D); the D-scan's 5-way-5-shot validation episodes are the paper's
+(Sec. IV-C); ``ncfs_sigma`` = 1 is fscnca's default kernel width. ``alpha`` (the head's
+temperature, not given in the paper), ``ncfs_lam_n`` (fscnca's lambda times the number of
+training trials) and ``ncfs_max_iter`` (L-BFGS iterations) default to the values
+``scripts/tune.py`` chose on validation data of the closed-set training half
+(:mod:`models.tuned`, evidence in ``docs/tuning.md``). ``ncfs_lam_n="cv"`` instead chooses
+lambda inside ``fit`` by fscnca's cross-validation on the training trials (slow).
 """
 
 from __future__ import annotations
@@ -13,20 +23,16 @@ import numpy as np
 from .base import FewShotMethod
 from .dscan import DEFAULT_CANDIDATES, dscan
 from .features import FEATURE_NAMES, pool_of
-from .ncfs import NCFS
+from .ncfs import DEFAULT_SIGMA, NCFS, select_lambda
 from .prototypes import adapt_cosine_head
 from .scaling import FeatureScaler
+from .tuned import tuned
 
 
 class AFOPML(FewShotMethod):
-    """AFOP-ML. Learned: ``scaler_``, ``ncfs_`` (weights, ranking), ``dscan_`` (curve),
-    ``D_`` (chosen size), ``selected_`` (indices of the top-D features).
-
-    ``ncfs_max_iter`` = 10 L-BFGS iterations of the NCA ranking: on the paper dataset's
-    closed-set half (1,080 trials) pretrain takes 1.5 s instead of 3.2 s with 25, and
-    5-way-5-shot / 36-way-1-shot accuracy moved from 96.5 / 64.4 % to 96.2 / 63.5 %
-    (300 / 100 episodes; within about one CI).
-    """
+    """AFOP-ML. Learned: ``scaler_``, ``ncfs_`` (weights, ranking), ``ncfs_cv_`` (the
+    lambda cross-validation when ``ncfs_lam_n="cv"``), ``dscan_`` (curve), ``D_`` (chosen
+    size), ``selected_`` (indices of the top-D features)."""
 
     name = "AFOP-ML"
 
@@ -37,25 +43,43 @@ class AFOPML(FewShotMethod):
         steps: int = 250,
         lr: float = 1.5e-3,
         lam: float = 0.10,
-        alpha: float = 10.0,
+        alpha: float | None = None,
         candidates: tuple[int, ...] = DEFAULT_CANDIDATES,
         dscan_episodes: int = 200,
-        ncfs_max_iter: int = 10,
+        ncfs_lam_n: float | str | None = None,
+        ncfs_max_iter: int | None = None,
+        ncfs_sigma: float = DEFAULT_SIGMA,
     ) -> None:
         super().__init__(seed=seed)
         self.steps = steps
         self.lr = lr
         self.lam = lam
-        self.alpha = alpha
+        self.alpha = tuned(self.name, "alpha") if alpha is None else alpha
         self.candidates = candidates
         self.dscan_episodes = dscan_episodes
-        self.ncfs_max_iter = ncfs_max_iter
+        self.ncfs_lam_n = tuned(self.name, "ncfs_lam_n") if ncfs_lam_n is None else ncfs_lam_n
+        self.ncfs_max_iter = (
+            tuned(self.name, "ncfs_max_iter") if ncfs_max_iter is None else ncfs_max_iter
+        )
+        self.ncfs_sigma = ncfs_sigma
 
     def _fit(self, signals: np.ndarray, labels: np.ndarray, features: np.ndarray | None) -> None:
         raw = pool_of(signals, features)
         self.scaler_ = FeatureScaler().fit(raw)
         z = self.scaler_.transform(raw)
-        self.ncfs_ = NCFS(max_iter=self.ncfs_max_iter).fit(z, labels)
+        n = z.shape[0]
+        if self.ncfs_lam_n == "cv":
+            self.ncfs_cv_ = select_lambda(
+                z, labels, seed=self.seed, sigma=self.ncfs_sigma, max_iter=self.ncfs_max_iter
+            )
+            lam = self.ncfs_cv_.best
+        elif isinstance(self.ncfs_lam_n, int | float) and self.ncfs_lam_n >= 0:
+            lam = float(self.ncfs_lam_n) / n
+        else:
+            raise ValueError(f"ncfs_lam_n must be a number >= 0 or 'cv'; got {self.ncfs_lam_n!r}")
+        self.ncfs_ = NCFS(lam=lam, sigma=self.ncfs_sigma, max_iter=self.ncfs_max_iter).fit(
+            z, labels
+        )
         scan = dscan(
             z,
             labels,

@@ -9,10 +9,10 @@
   queries are only forwarded. All episodes of a batch are one tensor problem
   (``W`` is ``(E, N, D)``), not a Python loop per episode.
 
-``alpha`` is fixed (default 10), not learned: with K <= 5 shots per class a learnable
-scale keeps growing to sharpen the support posteriors (the entropy term rewards it) and
-overfits the support set; 10 is the usual scale of cosine classifiers on unit vectors
-(logit range +-10 gives confident but not saturated softmaxes for N <= 36).
+``alpha`` is fixed per method, not learned per episode: with K <= 5 shots per class a
+learnable scale keeps growing to sharpen the support posteriors (the entropy term rewards
+it) and overfits the support set. The paper does not state its value; each method's
+``alpha`` is chosen on validation episodes of its training data (``scripts/tune.py``).
 Rows of ``W`` are l2-normalised in the forward pass, so the logit is a true cosine.
 
 Tensor shapes: ``F`` (P, D) embeddings of the pool; support ``(E, N, K)``, query ``(E, M)``

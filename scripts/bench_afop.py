@@ -1,12 +1,14 @@
-"""Timing of AFOP-ML's three stages against the issue-5 targets.
+"""Timing of AFOP-ML's stages against their targets.
 
     python3 scripts/bench_afop.py [--data PATH] [--threads 1] [--episodes 500] [--repeat 3]
 
 1. feature pool on 2,160 trials x 4 channels x 2,000 samples (target < 5 s on one core);
-2. pretrain = z-scoring + NCA ranking + D-scan on the closed-set training half
-   (target < 2 s);
-3. adapt ms per 5-way-5-shot episode, 500 episodes adapted as one batch
-   (target <= 3.9 ms, i.e. 100x below the paper's 391 ms).
+2. pretrain = z-scoring + NCA ranking (fscnca, the tuned lambda and L-BFGS iterations) +
+   D-scan on the closed-set training half (target < 2 s, the paper's ~2 s);
+3. single-episode latency of a 5-way-5-shot episode (one episode at a time, as the paper's
+   Table I "Adapt/episode" of 391 ms), without and with extracting the episode's features;
+4. batched throughput: 500 episodes adapted in one call, wall time / 500 (target <= 3.9
+   ms, 100x below the paper's per-episode 391 ms; an amortised figure, not a latency).
 
 Without ``--data`` the signals come from ``tests/synthetic_data.make_dataset`` (60 trials
 per class, 36 classes = 2,160 trials; timings do not depend on the signal content except
@@ -76,7 +78,8 @@ def main() -> None:
         model.fit(data.signals[train], data.label[train], features=feats[train])
         times.append(time.perf_counter() - t0)
     print(
-        f"pretrain  : {min(times):7.2f} s   on {len(train)} trials, D = {model.D_} (target < 2 s)"
+        f"pretrain  : {min(times):7.2f} s   on {len(train)} trials, D = {model.D_}, NCA "
+        f"{model.ncfs_.n_iter_} L-BFGS iterations (target < 2 s)"
     )
 
     batch = sample_episodes(
@@ -84,13 +87,19 @@ def main() -> None:
     )
     best = None
     for _ in range(args.repeat):
-        r = evaluate(model, data.signals[test], batch, features=feats[test])
-        if best is None or r.adapt_ms_per_episode < best.adapt_ms_per_episode:
+        r = evaluate(model, data.signals[test], batch, features=feats[test], latency_episodes=20)
+        if best is None or r.batch_ms_per_episode < best.batch_ms_per_episode:
             best = r
     print(
-        f"adapt     : {best.adapt_ms_per_episode:7.2f} ms/episode over {best.episodes} "
-        f"5-way-5-shot episodes, accuracy {100 * best.accuracy:.2f} +- {100 * best.ci95:.2f} % "
-        f"(target <= 3.9 ms)"
+        f"latency   : {best.latency_ms_per_episode:7.2f} ms per 5-way-5-shot episode, one at a "
+        f"time, features precomputed; {best.latency_with_features_ms_per_episode:.2f} ms "
+        f"including the episode's feature extraction (mean of {best.latency_episodes}; paper "
+        "391 ms)"
+    )
+    print(
+        f"batched   : {best.batch_ms_per_episode:7.2f} ms/episode, {best.episodes} 5-way-5-shot "
+        f"episodes adapted in one call (throughput, target <= 3.9 ms); accuracy "
+        f"{100 * best.accuracy:.2f} +- {100 * best.ci95:.2f} %"
     )
 
 

@@ -122,3 +122,43 @@ def test_refuses_use_before_fit_and_malformed_episodes(separable):
         model.predict_episodes(data.signals, np.array([[[0], [0]]]), np.array([[1, 2]]))
     with pytest.raises(ValueError, match="support"):
         model.predict_episodes(data.signals, np.array([[0, 1]]), np.array([[2]]))
+
+
+def test_feature_dim_is_the_embedding_width(separable):
+    from benchmark.protocols.generalisation import feature_dim
+    from models.afo_mlp import AFOMLPML
+
+    data, feats = separable
+    train, _ = _halves(data.label)
+    afop = AFOPML(dscan_episodes=20).fit(
+        data.signals[train], data.label[train], features=feats[train]
+    )
+    assert feature_dim(afop) == afop.D_
+    mlp = AFOMLPML(meta_iterations=5).fit(
+        data.signals[train], data.label[train], features=feats[train]
+    )
+    assert mlp.D_ != 32 and feature_dim(mlp) == 32  # the projection, not the top-D input
+
+
+def test_single_episode_latency_adapts_each_episode_alone(separable):
+    from benchmark.evaluate import _episode_pool
+
+    data, feats = separable
+    train, test = _halves(data.label)
+    model = AFOPML(dscan_episodes=20).fit(
+        data.signals[train], data.label[train], features=feats[train]
+    )
+    batch = sample_episodes(data.label[test], n_way=5, k_shot=2, n_query=2, episodes=6, seed=3)
+    r = evaluate(model, data.signals[test], batch, features=feats[test], latency_episodes=4)
+    assert r.latency_episodes == 4
+    assert r.latency_ms_per_episode > 0 and r.latency_with_features_ms_per_episode > 0
+    assert r.adapt_ms_per_episode == r.batch_ms_per_episode
+    # The pool of one episode holds its own trials only and re-indexes them faithfully.
+    trials, s, q = _episode_pool(batch, 2)
+    assert trials.size == 5 * 2 + 5 * 2
+    np.testing.assert_array_equal(trials[s[0]], batch.support[2])
+    np.testing.assert_array_equal(trials[q[0]], batch.query[2])
+    alone = model.predict_episodes(data.signals[test][trials], s, q, features=feats[test][trials])
+    np.testing.assert_array_equal(alone[0], r.predictions[2])
+    # Not measured unless asked for.
+    assert evaluate(model, data.signals[test], batch, features=feats[test]).latency_episodes == 0

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from benchmark.protocols import cross_material, cross_shape, generalisation, perturbation
+from benchmark.results import TIMING_FIELDS
 from benchmark.splits import CROSS_SHAPE_FOLDS, condition_name
 from models.base import FewShotMethod
 from synth import CLASS_NAMES, MATERIAL_NAMES
@@ -28,6 +29,9 @@ ACCURACY_FIELDS = {
     "ci95",
     "pretrain_s",
     "adapt_ms_per_episode",
+    "latency_ms_per_episode",
+    "latency_with_features_ms_per_episode",
+    "latency_episodes",
     "feature_dim",
 }
 SELECTION_FIELDS = {"record", "protocol", "fold", "D", "pvdf_share", "sg_share"}
@@ -40,7 +44,9 @@ class Spy(FewShotMethod):
     log: ClassVar[list[dict]] = []
 
     def _fit(self, signals, labels, features):
-        Spy.log.append({"op": "fit", "labels": labels.copy(), "rows": _row_keys(signals)})
+        Spy.log.append(
+            {"op": "fit", "labels": labels.copy(), "rows": _row_keys(signals), "seed": self.seed}
+        )
         self.D_ = 2  # what AFOP-ML exposes for selection records: a PVDF and an SG feature
         self.selected_ = np.array([0, 100])
 
@@ -153,6 +159,9 @@ def test_perturbation_fits_on_nominal_training_half(data, spy):
     )
     fits = [e for e in spy.log if e["op"] == "fit"]
     assert len(fits) == 1  # one fit, tested on every condition
+    # ... and it is the closed-set fit (same seed), so its D is the closed-set D.
+    assert fits[0]["seed"] == perturbation.closed_set_fit_seed(0)
+    assert perturbation.closed_set_fit_seed(0) == generalisation.child_seed(0, "closed-set", "fit")
     train_idx, _test_idx = generalisation.closed_set_halves(data, 0)
     assert fits[0]["rows"] == _row_keys(data.signals[train_idx])
     assert not fits[0]["rows"] & _row_keys(both.signals)
@@ -173,10 +182,7 @@ def test_same_seed_same_records_with_real_afop(data):
     b = cross_shape.run(data, methods=["AFOP-ML"], episodes=15, seed=3, reference=True)
 
     def strip(rs):
-        return [
-            {k: v for k, v in r.items() if k not in ("pretrain_s", "adapt_ms_per_episode")}
-            for r in rs
-        ]
+        return [{k: v for k, v in r.items() if k not in TIMING_FIELDS} for r in rs]
 
     assert strip(a) == strip(b)
     _check_schema(a)

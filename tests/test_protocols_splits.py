@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from benchmark.interpret import (
-    cross_same_ratio,
+    geometric_impostor_ratio,
     mixing_silhouette,
     nn1_accuracy,
     sensor_shares,
@@ -116,14 +116,34 @@ def test_indicators_on_mixed_clusters():
     ind = tsne_indicators(emb, shp, mat)
     assert ind.nn1_shape_accuracy == 1.0
     assert ind.mix_sil > 0.8
-    assert 1.3 < ind.dgi < 3.0  # ~2 for 3 randomly mixed materials
+    # Shape clusters ~100 apart, within-cluster spacing ~1: twins far nearer than impostors.
+    assert ind.dgi > 10.0
 
 
 def test_indicators_on_separated_materials():
     emb, shp, mat = _clusters(mixed=False, per=12)
     assert nn1_accuracy(emb, shp) == 1.0
     assert mixing_silhouette(emb, shp, mat) < 0.4
-    assert cross_same_ratio(emb, mat) < 0.3
+    # Material sub-clusters 6 apart inside shape clusters ~100 apart: DGI still > 1 (it
+    # compares materials with geometry); mix-sil is the indicator that sees sub-clusters.
+    assert geometric_impostor_ratio(emb, shp, mat) > 5.0
+
+
+def test_dgi_known_answers():
+    # A line: shape A at 0 (resin) and 1 (wood), shape B at 3 (resin) and 4 (wood). Every
+    # trial's other-material twin is 1 away, its impostor 3 away: DGI = 3 exactly.
+    emb = np.array([[0.0, 0.0], [1.0, 0.0], [3.0, 0.0], [4.0, 0.0]])
+    shp = np.array(["A", "A", "B", "B"])
+    mat = np.array(["resin", "wood", "resin", "wood"])
+    assert geometric_impostor_ratio(emb, shp, mat) == pytest.approx(3.0)
+    # Swapping the roles of shape and material inverts it; scaling leaves it unchanged.
+    assert geometric_impostor_ratio(emb, mat, shp) == pytest.approx(1 / 3)
+    assert geometric_impostor_ratio(7.5 * emb, shp, mat) == pytest.approx(3.0)
+    # Material-organised space (3 material clusters, shapes mixed inside): DGI < 1.
+    emb2, shp2, mat2 = _clusters(mixed=True)
+    assert geometric_impostor_ratio(emb2, mat2, shp2) < 0.2
+    # No trial has both kinds of neighbour: undefined.
+    assert np.isnan(geometric_impostor_ratio(emb[:2], shp[:2], np.array(["r", "r"])))
 
 
 def test_tsne_is_deterministic_and_keeps_clusters():

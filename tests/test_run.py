@@ -11,11 +11,10 @@ import pytest
 import synth
 import synth.generation as generation
 from benchmark.report import strip_timing
+from benchmark.results import TIMING_FIELDS
 from benchmark.run import FIGURE_FILES, Budget, benchmark_all, run
 from synth import Dataset
 from tests.synthetic_data import make_dataset
-
-TIMING_FIELDS = ("pretrain_s", "adapt_ms_per_episode")
 
 
 def comparable(records: list[dict]) -> list[dict]:

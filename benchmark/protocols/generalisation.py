@@ -110,12 +110,16 @@ def run_tasks(
     method_episodes: Mapping[str, int] | None = None,
     on_fit: Callable[[str, Task, FewShotMethod], None] | None = None,
     fit_groups: Sequence[Sequence[int]] | None = None,
+    fit_seeds: Sequence[int] | None = None,
 ) -> list[tuple[dict, np.ndarray]]:
     """Fit every method per task and evaluate 1-shot ``ways`` episodes on its test trials.
 
     ``fit_groups`` lets several tasks share one fit (the perturbation protocol fits once
     and tests on every condition): a list of task-index groups with the same ``train_idx``.
     ``on_fit(method, task, fitted)`` is called after each fit (selection records).
+    ``fit_seeds`` (one per fit group) replaces the derived fit seeds, so a protocol can
+    reproduce another protocol's fit exactly (the perturbation protocol re-uses the
+    closed-set fit).
     Returns ``(record, per-episode accuracies (E,))`` pairs, one per (task, method, way).
     """
     methods = check_methods(methods)
@@ -124,6 +128,8 @@ def run_tasks(
         if fit_groups is not None
         else [[i] for i in range(len(tasks))]
     )
+    if fit_seeds is not None and len(fit_seeds) != len(groups):
+        raise ValueError(f"fit_seeds must hold one seed per fit group ({len(groups)})")
     total = sum(len(g) for g in groups) * len(methods) * len(ways)
     # disable=None: quiet when stderr is not a TTY.
     bar = tqdm(total=total, desc=protocol, disable=None if progress else True, leave=False)
@@ -133,7 +139,10 @@ def run_tasks(
             first = tasks[group[0]]
             tr = first.train_idx
             for method_name in methods:
-                method = make_method(method_name, seed=child_seed(seed, protocol, g_i, "fit"))
+                fit_seed = (
+                    child_seed(seed, protocol, g_i, "fit") if fit_seeds is None else fit_seeds[g_i]
+                )
+                method = make_method(method_name, seed=fit_seed)
                 t0 = time.perf_counter()
                 method.fit(
                     train_signals[tr],
@@ -195,8 +204,10 @@ def _task_name(task: Task) -> str:
 
 
 def feature_dim(method: FewShotMethod) -> int | None:
-    """Dimensionality of the method's embedding if it exposes one (AFOP-ML: its D)."""
-    for attr in ("D_", "feature_dim_"):
+    """Width of the embedding the method's prototypes live in, if it exposes one:
+    ``feature_dim_`` when set (AFO-MLP-ML: its 32-wide projection, Direct-Prot-ML: 386),
+    else ``D_`` (AFOP-ML: the top-D features)."""
+    for attr in ("feature_dim_", "D_"):
         value = getattr(method, attr, None)
         if value is not None:
             return int(value)
@@ -207,7 +218,8 @@ def pool_folds(pairs: Sequence[tuple[dict, np.ndarray]]) -> list[dict]:
     """Across-fold summary records (``fold=None``), one per (condition, method, way): mean
     and ``ci95 = 1.96 * std / sqrt(E)`` over the per-episode accuracies of all folds
     together (``pairs`` = per-fold record with its ``(E,)`` per-episode accuracies).
-    Timing fields are the mean over folds, ``feature_dim`` the median.
+    Timing fields are the mean over folds (latencies over the folds that measured them),
+    ``feature_dim`` the median.
     """
     groups: dict[tuple, list[tuple[dict, np.ndarray]]] = {}
     for r, acc in pairs:
@@ -225,10 +237,20 @@ def pool_folds(pairs: Sequence[tuple[dict, np.ndarray]]) -> list[dict]:
             query=int(min(r["query"] for r, _ in rs)),
             pretrain_s=float(np.mean([r["pretrain_s"] for r, _ in rs])),
             adapt_ms_per_episode=float(np.mean([r["adapt_ms_per_episode"] for r, _ in rs])),
+            latency_ms_per_episode=_mean_or_none([r["latency_ms_per_episode"] for r, _ in rs]),
+            latency_with_features_ms_per_episode=_mean_or_none(
+                [r["latency_with_features_ms_per_episode"] for r, _ in rs]
+            ),
+            latency_episodes=int(sum(r["latency_episodes"] for r, _ in rs)),
             feature_dim=_median_or_none([r["feature_dim"] for r, _ in rs]),
         )
         out.append(pooled)
     return out
+
+
+def _mean_or_none(values: Sequence[float | None]) -> float | None:
+    v = [x for x in values if x is not None]
+    return float(np.mean(v)) if v else None
 
 
 def _median_or_none(values: Sequence[int | None]) -> int | None:
