@@ -738,8 +738,20 @@ def _inside(path: Path, folder: Path) -> bool:
     return path == folder or folder in path.parents
 
 
+def _is_labels_table(path: Path) -> bool:
+    """Whether the CSV file ``path`` looks like a labels table (its first line names a
+    ``file`` column), not a recording."""
+    try:
+        with open(path, encoding="utf-8-sig", errors="replace", newline="") as fh:
+            header = next(csv.reader([fh.readline()]), [])
+    except OSError:
+        return False
+    return "file" in (h.strip().lower() for h in header)
+
+
 def _unlisted(recordings: Path, rows: Sequence[LabelRow], labels: Path) -> list[str]:
-    """Recording files directly in ``recordings`` that the labels table does not list."""
+    """Recording files directly in ``recordings`` that the labels table does not list
+    (other labels tables beside it are not recordings)."""
     listed = {r.path.resolve() for r in rows} | {labels.resolve()}
     return sorted(
         p.name
@@ -748,6 +760,7 @@ def _unlisted(recordings: Path, rows: Sequence[LabelRow], labels: Path) -> list[
         and p.suffix.lower() in RECORDING_SUFFIXES
         and not p.name.startswith(".")
         and p.resolve() not in listed
+        and not (p.suffix.lower() == ".csv" and _is_labels_table(p))
     )
 
 

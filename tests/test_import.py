@@ -521,7 +521,9 @@ def test_unlisted_recordings_are_named_in_a_warning(tmp_path):
     recs = tmp_path / "recs"
     small(recs)
     write_csv(recs / "extra.csv", class_signal("circle", "resin", 9, 1000.0))
-    with pytest.warns(RecordingWarning, match="1 recording file.* extra.csv"):
+    write_labels(recs, [{"file": "t0.csv", "shape": "square"}], name="labels_old.csv")
+    # another labels table beside the recordings is not one of them
+    with pytest.warns(RecordingWarning, match=r"^1 recording file.*: extra\.csv$"):
         import_recordings(recs, tmp_path / "data", sample_rate_hz=1000, progress=False)
 
 
