@@ -1,4 +1,5 @@
-"""``tactile-synth generate / inspect / plot / export``: thin wrappers over the dataset library."""
+"""``tactile-synth generate / import / inspect / plot / export``: thin wrappers over the dataset
+library."""
 
 from __future__ import annotations
 
@@ -65,6 +66,46 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="with --resume: re-simulate the chunks that fail their checks (bit-identical)",
     )
     p.set_defaults(handler=_generate)
+
+    p = subparsers.add_parser(
+        "import",
+        help="turn your own recordings (CSV/NPZ, one per trial) into a dataset store",
+        description=(
+            "Import real recordings into a dataset store like the simulator's. RECORDINGS "
+            "is a folder with one CSV or NPZ file per trial (channels pvdf1, pvdf2, sg1, sg2 "
+            "in volts) and a labels table (file, shape, material, force_n, speed_mm_s; see "
+            "docs/recordings.md). Recordings are resampled to 1 kHz (with a warning) and cut "
+            "to 2 s windows centred on the contact phase of the strain gauges."
+        ),
+    )
+    p.add_argument("recordings", metavar="RECORDINGS", help="folder of recordings")
+    p.add_argument(
+        "--labels", metavar="CSV", help="table of labels (default: RECORDINGS/labels.csv)"
+    )
+    p.add_argument("--out", required=True, help="dataset path (a Zarr store directory)")
+    p.add_argument(
+        "--sample-rate",
+        type=float,
+        metavar="HZ",
+        help="sample rate of recordings that state none (labels column sample_rate_hz, "
+        "NPZ array sample_rate_hz or a time_s column)",
+    )
+    p.add_argument(
+        "--window-start",
+        type=float,
+        metavar="S",
+        help="start of every 2 s window in seconds from the recording's first sample "
+        "(default: centred on the contact phase found in sg1/sg2)",
+    )
+    p.add_argument(
+        "--chunk-trials", type=int, default=36, metavar="N", help="trials per chunk (default 36)"
+    )
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace an existing dataset (built beside it, swapped in when complete)",
+    )
+    p.set_defaults(handler=_import)
 
     p = subparsers.add_parser(
         "inspect", help="summarise a dataset store and check every chunk (exit 1 if damaged)"
@@ -207,6 +248,52 @@ def _generate(args: argparse.Namespace) -> int:
     print(
         f"wrote {args.out}: {n} trials ({n_classes} classes x {len(meta['conditions'])} "
         f"conditions x {cfg.trials_per_class} trials) in {elapsed:.1f} s"
+    )
+    return 0
+
+
+def _import(args: argparse.Namespace) -> int:
+    import warnings
+
+    from .importer import RecordingWarning, import_recordings
+
+    start = time.perf_counter()
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", RecordingWarning)
+            summary = import_recordings(
+                args.recordings,
+                args.out,
+                labels=args.labels,
+                sample_rate_hz=args.sample_rate,
+                window_start_s=args.window_start,
+                chunk_trials=args.chunk_trials,
+                overwrite=args.overwrite,
+            )
+    except KeyboardInterrupt:
+        print(
+            f"tactile-synth import: interrupted; nothing was imported ({args.out} is as it "
+            f"was); run the same command again",
+            file=sys.stderr,
+        )
+        return 130
+    for w in caught:
+        if issubclass(w.category, RecordingWarning):
+            print(f"tactile-synth import: warning: {w.message}", file=sys.stderr)
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    elapsed = time.perf_counter() - start
+    formats = ", ".join(f"{n} {fmt.upper()}" for fmt, n in sorted(summary.formats.items()))
+    how = {
+        "contact": "centred on the contact phase",
+        "given": "from the given start",
+        "whole": "whole recordings",
+    }
+    windows = ", ".join(f"{n} {how.get(k, k)}" for k, n in sorted(summary.windows.items()))
+    print(
+        f"wrote {args.out}: {summary.n_trials} trials ({summary.n_classes} classes x "
+        f"{len(summary.conditions)} conditions) from {formats} recordings; windows: {windows}; "
+        f"in {elapsed:.1f} s"
     )
     return 0
 

@@ -295,6 +295,13 @@ def _resume_job(config: GenerationConfig | None, out: Path, target: Path, *, rep
     replacing = target != out
     where = f"the interrupted replacement of {out} ({target})" if replacing else str(out)
     st = store.Store.open(target)
+    if st.imported:
+        # Recordings cannot be re-simulated: only the import that made them rebuilds them.
+        raise store.DatasetError(
+            f"{where} holds imported recordings (tactile-synth import), which --resume and "
+            f"--repair cannot re-simulate",
+            f"import them again with `{store.reimport_command(out, st.meta)}`",
+        )
     if config is not None:
         _check_same(config, st.config, where)
     done, problems = st.status()

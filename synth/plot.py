@@ -48,7 +48,7 @@ def plot_examples(path: str | Path, out: str | Path) -> Path:
     mean = stack.mean(axis=(0, 2))[:, None]
     std = stack.std(axis=(0, 2))[:, None] + 1e-12
     classes, channels = meta["classes"], meta["channels"]
-    shapes_, materials = meta["config"]["shapes"], meta["config"]["materials"]
+    shapes_, materials = st.shapes, st.materials
     t = np.arange(stack.shape[2]) / float(meta["sample_rate_hz"])
     fig, axes = plt.subplots(
         len(shapes_),

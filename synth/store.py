@@ -28,6 +28,16 @@ another chunk's, copied from another dataset or edited fails it; every reader he
 (:func:`load_dataset`, ``inspect``, ``plot``, ``export``, the benchmark) checks it, and
 checks the per-trial arrays against the plan regenerated from the stored configuration.
 Problems raise :class:`DatasetDamaged`, naming the chunk, its file and the repair command.
+
+Two kinds of store share this layout (attribute ``kind``): ``"simulated"`` (written by
+``tactile-synth generate``; a store without ``kind`` is one) holds the configuration its
+per-trial arrays are regenerated from, as above; ``"imported"`` (written by
+``tactile-synth import`` from real recordings, :mod:`synth.importer`) has no plan to
+regenerate, so its attributes hold a CRC-32C of each per-trial array instead, checked
+on every read, and the import's provenance under ``import``. Its chunks carry the same
+checksums, computed from the stored label, force, speed and seed of their trials. An
+imported store cannot be resumed or repaired by simulation: it is rebuilt by running
+the import again.
 """
 
 from __future__ import annotations
@@ -36,6 +46,7 @@ import datetime as _dt
 import importlib.metadata
 import json
 import os
+import shlex
 import uuid
 from collections.abc import Iterable, Iterator, Sequence
 from contextlib import contextmanager
@@ -46,14 +57,20 @@ from typing import Any
 
 import numpy as np
 
+from shapes import SHAPE_NAMES
+
 from . import atomic
 from .dataset import Dataset
+from .materials import MATERIAL_NAMES
 from .presets import GenerationConfig, TrialPlan, condition_name, plan
 from .trial import CHANNELS, CLASS_NAMES, N_SAMPLES, SAMPLE_RATE_HZ, TrialSpec, class_index
 
 #: Bumped whenever the layout above changes incompatibly.
 FORMAT_VERSION: int = 2
 ATTR_KEY = "tactile_synth"
+#: The two kinds of store (attribute ``kind``; a store without it is simulated).
+KIND_SIMULATED = "simulated"
+KIND_IMPORTED = "imported"
 _PLAN_DTYPES = {
     "label": "int16",
     "condition": "int16",
@@ -113,13 +130,48 @@ class DatasetDamaged(DatasetError):
         self.problems = list(problems)
         shown = "; ".join(str(p) for p in self.problems[:3])
         more = len(self.problems) - 3
+        command = repair_command(path)
+        imported = command.startswith("tactile-synth import")
+        how = "import it again" if imported else "re-simulate the damaged parts"
         super().__init__(
             f"dataset {path} is damaged: {shown}" + (f"; and {more} more" if more > 0 else ""),
-            f"re-simulate the damaged parts with `{repair_command(path)}`",
+            f"{how} with `{command}`",
         )
 
 
+def store_kind(meta: dict[str, Any]) -> str:
+    """``"simulated"`` or ``"imported"`` (see the module docstring)."""
+    return str(meta.get("kind", KIND_SIMULATED))
+
+
+def reimport_command(path: str | Path, meta: dict[str, Any]) -> str:
+    """The ``tactile-synth import`` command that rebuilds the imported store ``path`` from
+    its recordings (read from its provenance)."""
+    prov = meta.get("import") or {}
+    argv = ["tactile-synth", "import", str(prov.get("recordings", "RECORDINGS"))]
+    if prov.get("labels"):
+        argv += ["--labels", str(prov["labels"])]
+    options = prov.get("options") or {}
+    for key, flag in (
+        ("sample_rate_hz", "--sample-rate"),
+        ("window_start_s", "--window-start"),
+        ("chunk_trials", "--chunk-trials"),
+    ):
+        if options.get(key) is not None:
+            argv += [flag, f"{options[key]:g}"]
+    argv += ["--out", str(path), "--overwrite"]
+    return shlex.join(argv)
+
+
 def repair_command(path: str | Path) -> str:
+    """The command that rebuilds the damaged parts of the store ``path``: re-simulation for
+    a simulated store, the import again for an imported one."""
+    try:
+        meta = _read_meta(Path(path))
+    except (OSError, ValueError):
+        meta = {}
+    if store_kind(meta) == KIND_IMPORTED:
+        return reimport_command(path, meta)
     return f"tactile-synth generate --resume --repair --out {path}"
 
 
@@ -216,17 +268,17 @@ def chunk_checksum(
 
 
 # -- creating -----------------------------------------------------------------------------
-def create(path: str | Path, config: GenerationConfig) -> str:
-    """Create the store for ``config`` (``config.synth`` must be resolved) at an absent or
-    empty ``path``; no signal is written yet. Returns the new store's id."""
+def _now() -> str:
+    return _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
+
+
+def _create_arrays(path: Path, trials: TrialPlan, chunk_trials: int) -> Any:
+    """The arrays of a new store at an absent or empty ``path`` (per-trial arrays filled
+    from ``trials``, no signal, no chunk done); returns the zarr group."""
     import zarr
     from zarr.codecs import BloscCodec, Crc32cCodec
 
-    path = Path(path)
-    if config.synth is None:
-        raise ValueError("config.synth must be resolved (SynthConfig.to_dict()) before create")
-    trials = plan(config)
-    n, c = len(trials), config.chunk_trials
+    n, c = len(trials), chunk_trials
     group = zarr.open_group(path, mode="w-", zarr_format=3)
     group.create_array(
         "signals",
@@ -237,13 +289,13 @@ def create(path: str | Path, config: GenerationConfig) -> str:
         fill_value=np.float32(0),
         dimension_names=("trial", "channel", "time"),
     )
-    for name in _PLAN_ARRAYS:
-        values = getattr(trials, name)
+    for name, dtype in _PLAN_DTYPES.items():
+        values = np.asarray(getattr(trials, name), dtype=dtype)
         arr = group.create_array(
             name,
             shape=values.shape,
             chunks=(max(n, 1),),
-            dtype=values.dtype,
+            dtype=dtype,
             compressors=[Crc32cCodec()],
             dimension_names=("trial",),
         )
@@ -251,30 +303,111 @@ def create(path: str | Path, config: GenerationConfig) -> str:
     for name, dtype in (("checksum", "uint32"), ("done", "uint8")):
         group.create_array(
             name,
-            shape=(config.n_chunks,),
+            shape=(-(-n // c),),
             chunks=(1,),
             dtype=dtype,
             compressors=[Crc32cCodec()],
             fill_value=0,
             dimension_names=("chunk",),
         )
+    return group
+
+
+def create(path: str | Path, config: GenerationConfig) -> str:
+    """Create the store for ``config`` (``config.synth`` must be resolved) at an absent or
+    empty ``path``; no signal is written yet. Returns the new store's id."""
+    path = Path(path)
+    if config.synth is None:
+        raise ValueError("config.synth must be resolved (SynthConfig.to_dict()) before create")
+    trials = plan(config)
+    group = _create_arrays(path, trials, config.chunk_trials)
     store_id = uuid.uuid4().hex
     # Written last: a store without it is a creation that did not finish.
     group.attrs[ATTR_KEY] = {
         "format_version": FORMAT_VERSION,
+        "kind": KIND_SIMULATED,
         **versions(),
         "store_id": store_id,
-        "created_at": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+        "created_at": _now(),
         "config": config.to_dict(),
         "classes": list(CLASS_NAMES),
         "channels": list(CHANNELS),
         "conditions": [condition_name(f, s) for f, s in config.conditions],
         "sample_rate_hz": SAMPLE_RATE_HZ,
-        "n_trials": n,
-        "chunk_trials": c,
+        "n_trials": len(trials),
+        "chunk_trials": config.chunk_trials,
         "n_chunks": config.n_chunks,
     }
     return store_id
+
+
+def array_checksum(values: np.ndarray, dtype: str) -> int:
+    """CRC-32C of a per-trial array as stored (little-endian ``dtype``, C order)."""
+    import google_crc32c
+
+    return int(google_crc32c.value(_readonly(values, np.dtype(dtype).newbyteorder("<").str)))
+
+
+def create_imported(
+    path: str | Path,
+    trials: TrialPlan,
+    conditions: Sequence[tuple[float, float]],
+    chunk_trials: int,
+) -> str:
+    """Create an imported store's skeleton at an absent or empty ``path``: the per-trial
+    arrays of ``trials`` (in store order; ``condition`` indexes ``conditions``), no
+    signal yet. Its chunks are written with :func:`write_chunk`, then
+    :func:`finish_imported` writes the trials' seeds (``trials.seed`` holds placeholders
+    until then) and records the array checksums and provenance. Returns the store's id.
+    """
+    path = Path(path)
+    n = len(trials)
+    if n == 0:
+        raise ValueError("an imported dataset needs at least one trial")
+    group = _create_arrays(path, trials, chunk_trials)
+    store_id = uuid.uuid4().hex
+    # No array checksums yet: Store.open refuses it as an unfinished import until
+    # finish_imported writes them.
+    group.attrs[ATTR_KEY] = {
+        "format_version": FORMAT_VERSION,
+        "kind": KIND_IMPORTED,
+        **versions(),
+        "store_id": store_id,
+        "created_at": _now(),
+        "classes": list(CLASS_NAMES),
+        "channels": list(CHANNELS),
+        "conditions": [condition_name(f, s) for f, s in conditions],
+        "sample_rate_hz": SAMPLE_RATE_HZ,
+        "n_trials": n,
+        "chunk_trials": chunk_trials,
+        "n_chunks": -(-n // chunk_trials),
+    }
+    return store_id
+
+
+def finish_imported(path: str | Path, seed: np.ndarray, provenance: dict[str, Any]) -> None:
+    """Write the trials' ``seed`` (the ids their chunks were written with), then record the
+    CRC-32C of each per-trial array (read back from the disk) and the import's
+    ``provenance``: the last write of an import, after every chunk is done."""
+    import zarr
+
+    path = Path(path)
+    group = zarr.open_group(path, mode="r+", zarr_format=3)
+    group["seed"][:] = np.asarray(seed, dtype=_PLAN_DTYPES["seed"])
+    meta = dict(group.attrs[ATTR_KEY])
+    sums = {}
+    for name, dtype in _PLAN_DTYPES.items():
+        sums[name] = array_checksum(np.asarray(group[name][:]), dtype)
+    shapes_, materials = set(), set()
+    for cls in np.unique(np.asarray(group["label"][:])):
+        shape, material = CLASS_NAMES[int(cls)].split("/")
+        shapes_.add(shape)
+        materials.add(material)
+    meta["shapes"] = [s for s in SHAPE_NAMES if s in shapes_]
+    meta["materials"] = [m for m in MATERIAL_NAMES if m in materials]
+    meta["array_checksums"] = sums
+    meta["import"] = provenance
+    group.attrs[ATTR_KEY] = meta
 
 
 # -- opening ------------------------------------------------------------------------------
@@ -287,6 +420,15 @@ def _missing_message(path: Path) -> str:
             f"`tactile-synth generate --resume --out {path}`"
         )
     if is_store(pending):
+        try:
+            imported = store_kind(_read_meta(pending)) == KIND_IMPORTED
+        except (OSError, ValueError):
+            imported = False
+        if imported:
+            return (
+                f"dataset {path} does not exist, but an interrupted import left its "
+                f"replacement at {pending}; run your `tactile-synth import` command again"
+            )
         return (
             f"dataset {path} does not exist, but an interrupted generation left its "
             f"replacement at {pending}; finish it with "
@@ -326,6 +468,16 @@ def _read_meta(path: Path) -> dict[str, Any]:
     return meta
 
 
+def _rebuild_advice(path: Path, meta: dict[str, Any]) -> str:
+    """How to rebuild the whole store ``path`` from what made it."""
+    if store_kind(meta) == KIND_IMPORTED:
+        return f"import it again with `{reimport_command(path, meta)}`"
+    return (
+        f"regenerate the dataset with `tactile-synth generate --from-config "
+        f"{path} --out {path} --overwrite`"
+    )
+
+
 def _check_format(path: Path, meta: dict[str, Any]) -> None:
     version = meta.get("format_version")
     if version != FORMAT_VERSION:
@@ -333,8 +485,15 @@ def _check_format(path: Path, meta: dict[str, Any]) -> None:
             f"{path} has dataset format version {version!r} (written by tactile-synth "
             f"{meta.get('package_version', 'unknown')}) but this tactile-synth "
             f"({_package_version()}) reads version {FORMAT_VERSION}",
-            f"regenerate it with `tactile-synth generate --from-config {path} --out {path} "
-            f"--overwrite`, or read it with the tactile-synth version that wrote it",
+            f"{_rebuild_advice(path, meta)}, or read it with the tactile-synth version "
+            f"that wrote it",
+        )
+    kind = meta.get("kind", KIND_SIMULATED)
+    if kind not in (KIND_SIMULATED, KIND_IMPORTED):
+        raise DatasetError(
+            f"{path / 'zarr.json'} names an unknown dataset kind {kind!r} (this tactile-synth "
+            f"reads {KIND_SIMULATED!r} and {KIND_IMPORTED!r} datasets)",
+            "read it with the tactile-synth version that wrote it",
         )
 
 
@@ -343,6 +502,12 @@ def stored_config(path: str | Path) -> GenerationConfig:
     format version, so ``--from-config`` can regenerate an old dataset in the new format."""
     path = Path(path)
     meta = _read_meta(path)
+    if store_kind(meta) == KIND_IMPORTED:
+        raise DatasetError(
+            f"{path} holds imported recordings (tactile-synth import): it has no generation "
+            f"configuration to simulate from",
+            "give the grid with --preset, --config or the grid options",
+        )
     return _config_of(path, meta)
 
 
@@ -356,15 +521,66 @@ def _config_of(path: Path, meta: dict[str, Any]) -> GenerationConfig:
         ) from None
 
 
+def _check_imported_meta(path: Path, meta: dict[str, Any]) -> None:
+    """An imported store's attributes hold its geometry and the checksums of its per-trial
+    arrays; an import that stopped before writing them is refused as unfinished."""
+    meta_file = path / "zarr.json"
+    if "array_checksums" not in meta:
+        raise DatasetError(
+            f"{path} is an import that did not finish (no array checksums in {meta_file})",
+            f"run your `tactile-synth import ... --out {path}` command again with --overwrite",
+        )
+
+    def count(key: str, minimum: int) -> int:
+        value = meta.get(key)
+        if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+            raise DatasetError(
+                f"{meta_file} holds no valid {key} (an integer >= {minimum}); got {value!r}",
+                _rebuild_advice(path, meta),
+            )
+        return value
+
+    n, c = count("n_trials", 1), count("chunk_trials", 1)
+    if count("n_chunks", 1) != -(-n // c):
+        raise DatasetError(
+            f"{meta_file} says {meta['n_chunks']} chunks, but {n} trials in chunks of {c} "
+            f"make {-(-n // c)}",
+            _rebuild_advice(path, meta),
+        )
+    sums = meta.get("array_checksums")
+    if not isinstance(sums, dict) or any(
+        isinstance(sums.get(k), bool) or not isinstance(sums.get(k), int) for k in _PLAN_ARRAYS
+    ):
+        raise DatasetError(
+            f"{meta_file} holds no valid array_checksums (one integer for each of "
+            f"{', '.join(_PLAN_ARRAYS)})",
+            _rebuild_advice(path, meta),
+        )
+    for key, allowed in (("shapes", SHAPE_NAMES), ("materials", MATERIAL_NAMES)):
+        names = meta.get(key)
+        if not isinstance(names, list) or not names or any(x not in allowed for x in names):
+            raise DatasetError(
+                f"{meta_file} holds no valid {key} (names from {', '.join(allowed)})",
+                _rebuild_advice(path, meta),
+            )
+    conditions = meta.get("conditions")
+    if not isinstance(conditions, list) or not conditions:
+        raise DatasetError(
+            f"{meta_file} holds no valid conditions (a list of force/speed names)",
+            _rebuild_advice(path, meta),
+        )
+
+
 @dataclass
 class Store:
-    """An opened tactile-synth store: its metadata, configuration and arrays, with checked
-    reads. ``Store.open(path)`` raises one-line errors naming the file at fault."""
+    """An opened tactile-synth store: its metadata, configuration (``None`` for an
+    imported store) and arrays, with checked reads. ``Store.open(path)`` raises one-line
+    errors naming the file at fault."""
 
     path: Path
     group: Any
     meta: dict[str, Any]
-    config: GenerationConfig
+    config: GenerationConfig | None
     arrays: dict[str, Any] = field(default_factory=dict)
     _checksums: tuple[np.ndarray, dict[int, str]] | None = field(default=None, repr=False)
 
@@ -375,7 +591,11 @@ class Store:
         path = Path(path)
         meta = _read_meta(path)
         _check_format(path, meta)
-        config = _config_of(path, meta)
+        if store_kind(meta) == KIND_IMPORTED:
+            _check_imported_meta(path, meta)
+            config = None
+        else:
+            config = _config_of(path, meta)
         try:
             group = zarr.open_group(path, mode=mode, zarr_format=3)
         except (ValueError, KeyError, TypeError) as exc:  # pragma: no cover - read above
@@ -395,10 +615,7 @@ class Store:
             expected[name] = ((n,), (max(n, 1),), dtype)
         for name, (shape, chunks, dtype) in expected.items():
             meta_file = self.path / name / "zarr.json"
-            regenerate = (
-                f"regenerate the dataset with `tactile-synth generate --from-config "
-                f"{self.path} --out {self.path} --overwrite`"
-            )
+            regenerate = _rebuild_advice(self.path, self.meta)
             try:
                 arr = self.group[name]
             except Exception as exc:  # zarr raises JSON, key and type errors on bad metadata
@@ -413,23 +630,53 @@ class Store:
             if (arr.shape, arr.chunks, str(arr.dtype)) != (shape, chunks, dtype):
                 raise DatasetError(
                     f"{meta_file} describes {arr.dtype} {arr.shape} in chunks {arr.chunks}, "
-                    f"but the dataset's configuration needs {dtype} {shape} in chunks {chunks}",
+                    f"but the dataset's {'attributes' if self.imported else 'configuration'} "
+                    f"need {dtype} {shape} in chunks {chunks}",
                     regenerate,
                 )
             self.arrays[name] = arr
 
-    # -- geometry ------------------------------------------------------------------------
+    # -- kind and geometry ---------------------------------------------------------------
+    @property
+    def kind(self) -> str:
+        """``"simulated"`` or ``"imported"``."""
+        return store_kind(self.meta)
+
+    @property
+    def imported(self) -> bool:
+        return self.kind == KIND_IMPORTED
+
     @property
     def n_trials(self) -> int:
-        return self.config.n_trials
+        return self.config.n_trials if self.config is not None else int(self.meta["n_trials"])
 
     @property
     def chunk_trials(self) -> int:
-        return self.config.chunk_trials
+        if self.config is not None:
+            return self.config.chunk_trials
+        return int(self.meta["chunk_trials"])
 
     @property
     def n_chunks(self) -> int:
-        return self.config.n_chunks
+        return self.config.n_chunks if self.config is not None else int(self.meta["n_chunks"])
+
+    @property
+    def shapes(self) -> tuple[str, ...]:
+        """The shapes of the dataset's classes (paper order)."""
+        return self.config.shapes if self.config is not None else tuple(self.meta["shapes"])
+
+    @property
+    def materials(self) -> tuple[str, ...]:
+        """The materials of the dataset's classes (paper order)."""
+        if self.config is not None:
+            return self.config.materials
+        return tuple(self.meta["materials"])
+
+    def finish_advice(self) -> str:
+        """How to complete this store when chunks are not done."""
+        if self.imported:
+            return _rebuild_advice(self.path, self.meta)
+        return f"finish it with `tactile-synth generate --resume --out {self.path}`"
 
     @property
     def store_id(self) -> str | None:
@@ -444,8 +691,25 @@ class Store:
 
     @cached_property
     def plan(self) -> TrialPlan:
-        """The trials the stored configuration defines (regenerated, never read)."""
-        return plan(self.config)
+        """The per-trial arrays: for a simulated store the plan of its configuration
+        (regenerated, never read); for an imported one the stored arrays (checked by
+        :meth:`check_plan`; one that cannot be read comes back as zeros, which fail it)."""
+        if self.config is not None:
+            return plan(self.config)
+        values, _ = self._stored_trials
+        return TrialPlan(**values)
+
+    @cached_property
+    def _stored_trials(self) -> tuple[dict[str, np.ndarray], dict[str, str]]:
+        """An imported store's per-trial arrays and ``{name: error}`` for unreadable ones."""
+        values, bad = {}, {}
+        for name, dtype in _PLAN_DTYPES.items():
+            try:
+                values[name] = np.asarray(self.arrays[name][:], dtype=dtype)
+            except Exception as exc:
+                values[name] = np.zeros(self.n_trials, dtype=dtype)
+                bad[name] = _decode_error(exc)
+        return values, bad
 
     # -- flags ---------------------------------------------------------------------------
     def _flags(self, name: str) -> tuple[np.ndarray, dict[int, str]]:
@@ -550,7 +814,10 @@ class Store:
         return out, problems, whole
 
     def check_plan(self) -> list[Problem]:
-        """The stored per-trial arrays that differ from the plan of the stored configuration."""
+        """The stored per-trial arrays that differ from the plan of the stored configuration
+        (simulated) or from their recorded checksums (imported)."""
+        if self.imported:
+            return self._check_imported_trials()
         problems = []
         for name in _PLAN_ARRAYS:
             file = self.file(name)
@@ -573,6 +840,23 @@ class Store:
                         f"(first: trial {int(bad[0])})",
                     )
                 )
+        return problems
+
+    def _check_imported_trials(self) -> list[Problem]:
+        values, bad = self._stored_trials
+        sums = self.meta["array_checksums"]
+        problems = []
+        for name, dtype in _PLAN_DTYPES.items():
+            file = self.file(name)
+            if name in bad:
+                problems.append(Problem(name, file, f"cannot be read: {bad[name]}"))
+            elif array_checksum(values[name], dtype) != int(sums[name]):
+                why = (
+                    "is missing"
+                    if not file.is_file()
+                    else "fails its checksum (edited, or copied from another dataset)"
+                )
+                problems.append(Problem(name, file, why))
         return problems
 
     def verify(self) -> list[Problem]:
@@ -694,8 +978,7 @@ def load_dataset(path: str | Path, *, allow_incomplete: bool = False) -> Dataset
     if not done.all() and not allow_incomplete and not problems:
         raise DatasetError(
             f"dataset {path} is incomplete ({int(done.sum())}/{done.size} chunks done)",
-            f"finish it with `tactile-synth generate --resume --out {path}` "
-            f"or load it with allow_incomplete=True",
+            f"{store.finish_advice()}, or load it with allow_incomplete=True",
         )
     problems += store.check_plan()
     chunks, chunk_problems, whole = store._read_chunks(np.flatnonzero(done))

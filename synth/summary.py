@@ -52,10 +52,10 @@ def inspect_store(path: str | Path) -> tuple[str, list[store.Problem]]:
     pass their checks) and the problems found."""
     path = Path(path)
     st = store.Store.open(path)
-    meta, cfg = st.meta, st.config
+    meta = st.meta
     done, problems = st.status()
     problems += st.check_plan()
-    n, c = st.n_trials, st.chunk_trials
+    n = st.n_trials
     good: list[int] = []
 
     def verified_chunks():
@@ -77,21 +77,18 @@ def inspect_store(path: str | Path) -> tuple[str, list[store.Problem]]:
     lines = [
         f"dataset    {path}",
         f"format     {meta['format_version']} (tactile-synth {meta['package_version']}, "
-        f"MuJoCo {meta['mujoco_version']}, zarr {meta['zarr_version']}), "
-        f"created {meta['created_at']}",
-        f"config     preset={cfg.preset} seed={cfg.seed} "
-        f"{len(cfg.shapes)} shapes x {len(cfg.materials)} materials x "
-        f"{len(meta['conditions'])} conditions x {cfg.trials_per_class} trials "
-        f"({n} trials, {st.n_chunks} chunks of {c})",
+        + ("" if st.imported else f"MuJoCo {meta['mujoco_version']}, ")
+        + f"zarr {meta['zarr_version']}), created {meta['created_at']}",
+        *_origin_lines(st),
         f"complete   {'yes' if complete else 'NO'}: {int(done.sum())}/{done.size} chunks, "
-        f"{int(marked.sum())}/{n} trials"
-        + ("" if complete else f" (finish with: tactile-synth generate --resume --out {path})"),
+        f"{int(marked.sum())}/{n} trials" + ("" if complete else f" ({st.finish_advice()})"),
     ]
     if problems:
         shown = "; ".join(str(p) for p in problems[:5])
         more = f"; and {len(problems) - 5} more" if len(problems) > 5 else ""
+        how = "rebuild" if st.imported else "repair"
         lines.append(
-            f"integrity  DAMAGED: {shown}{more} (repair with: {store.repair_command(path)})"
+            f"integrity  DAMAGED: {shown}{more} ({how} with: {store.repair_command(path)})"
         )
     else:
         lines.append("integrity  ok: every finished chunk and per-trial array passes its checks")
@@ -117,6 +114,41 @@ def inspect_store(path: str | Path) -> tuple[str, list[store.Problem]]:
         vals = [stats[key][i] for key in ("mean", "std", "min", "max", "rms")]
         lines.append(f"  {ch:<8}" + "".join(f"{v:>12.5g}" for v in vals))
     return "\n".join(lines), problems
+
+
+def _counts(values: list) -> str:
+    """``"72 x a, 2 x b"``: how often each value occurs, most frequent first."""
+    uniq, counts = np.unique(np.asarray(values, dtype=str), return_counts=True)
+    order = np.argsort(-counts, kind="stable")
+    return ", ".join(f"{counts[i]} x {uniq[i]}" for i in order)
+
+
+def _origin_lines(st: store.Store) -> list[str]:
+    """Where the data come from: the generation grid, or the import's sources."""
+    meta, n = st.meta, st.n_trials
+    chunks = f"({n} trials, {st.n_chunks} chunks of {st.chunk_trials})"
+    if not st.imported:
+        cfg = st.config
+        return [
+            f"config     preset={cfg.preset} seed={cfg.seed} "
+            f"{len(cfg.shapes)} shapes x {len(cfg.materials)} materials x "
+            f"{len(meta['conditions'])} conditions x {cfg.trials_per_class} trials {chunks}"
+        ]
+    prov = meta.get("import") or {}
+    trials = prov.get("trials") or {}
+    classes = len(set(st.plan.label.tolist()))
+    lines = [
+        f"imported   from {prov.get('recordings', '?')} (labels {prov.get('labels', '?')}): "
+        f"{len(st.shapes)} shapes x {len(st.materials)} materials, {classes} classes x "
+        f"{len(meta['conditions'])} conditions {chunks}"
+    ]
+    if trials.get("sample_rate_hz"):
+        rates = [f"{r:g} Hz" for r in trials["sample_rate_hz"]]
+        lines.append(
+            f"recordings {_counts(rates)} (resampled to {meta['sample_rate_hz']} Hz where "
+            f"different); windows of {prov.get('window_s', 2):g} s: {_counts(trials['window'])}"
+        )
+    return lines
 
 
 def summarize(path: str | Path) -> str:
