@@ -21,6 +21,7 @@ import numpy as np
 from shapes import SHAPE_NAMES
 from synth import CHANNELS, MATERIAL_NAMES, SAMPLE_RATE_HZ, Dataset
 
+from .results import select
 from .splits import parse_condition
 
 #: Panel order and titles of Fig. 5.
@@ -53,6 +54,8 @@ MATERIAL_COLOURS: dict[str, str] = {
     "aluminum": "tab:gray",
 }
 DPI = 120
+#: Panels per row of the perturbation heat map (more methods wrap onto further rows).
+HEATMAP_COLUMNS = 4
 #: The nominal condition of the paper (Section III), absent from the perturbation grid.
 NOMINAL_FORCE_N = 1.0
 NOMINAL_SPEED_MM_S = 10.0
@@ -67,11 +70,7 @@ def _save(fig: plt.Figure, path: str | Path) -> Path:
 
 
 def _curve(records: Sequence[dict], **match: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    rs = [
-        r
-        for r in records
-        if r.get("record") == "accuracy" and all(r.get(k) == v for k, v in match.items())
-    ]
+    rs = select(records, "accuracy", **match)
     rs.sort(key=lambda r: r["way"])
     way = np.array([r["way"] for r in rs])
     acc = np.array([r["accuracy"] for r in rs]) * 100
@@ -100,7 +99,7 @@ def generalisation_curves(records: Sequence[dict], path: str | Path) -> Path:
     """Fig. 5: 1-shot accuracy vs N-way per protocol, one line + 95 % CI band per method,
     the closed-set AFOP-ML curve (``protocol="closed-set", condition="reference"``) dashed.
     Uses the across-fold records (``fold=None``)."""
-    methods = list(dict.fromkeys(r["method"] for r in records if r.get("record") == "accuracy"))
+    methods = list(dict.fromkeys(r["method"] for r in select(records, "accuracy")))
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.2), sharey=True)
     ref = _curve(records, protocol="closed-set", condition="reference", shot=1)
     for ax, (protocol, condition, title) in zip(axes, GENERALISATION_PANELS, strict=True):
@@ -145,45 +144,40 @@ def perturbation_heatmap(
     way: int = 5,
     nominal_method: str = "AFOP-ML",
 ) -> Path:
-    """5-way-1-shot accuracy over the force x speed grid, one panel per method.
+    """5-way-1-shot accuracy over the force x speed grid, one panel per method (every
+    method of ``methods`` that has perturbation records, :data:`HEATMAP_COLUMNS` per row).
 
     The perturbation dataset leaves out the nominal condition; where the grid has a hole
     at 1 N / 10 mm/s, the AFOP-ML panel shows the closed-set reference (nominal test half,
     ``condition="reference"``) there, labelled "nominal", for comparison.
     """
     nominal = next(
-        (
-            r
-            for r in records
-            if r.get("record") == "accuracy"
-            and r["protocol"] == "closed-set"
-            and r["condition"] == "reference"
-            and r["way"] == way
-        ),
+        iter(select(records, "accuracy", protocol="closed-set", condition="reference", way=way)),
         None,
     )
     panels = []
     for m in methods:
         cells = {}
-        for r in records:
-            if (
-                r.get("record") == "accuracy"
-                and r["protocol"] == "perturbation"
-                and r["method"] == m
-                and r["way"] == way
-                and r["shot"] == 1
-            ):
-                fs = parse_condition(r["condition"])
-                if fs is not None:
-                    cells[fs] = r
+        for r in select(records, "accuracy", protocol="perturbation", method=m, way=way, shot=1):
+            fs = parse_condition(r["condition"])
+            if fs is not None:
+                cells[fs] = r
         if cells:
             panels.append((m, cells))
     if not panels:
         raise ValueError("no per-condition perturbation records to draw")
+    n_cols = min(len(panels), HEATMAP_COLUMNS)
+    n_rows = -(-len(panels) // n_cols)
     fig, axes = plt.subplots(
-        1, len(panels), figsize=(5.2 * len(panels), 4.0), squeeze=False, layout="constrained"
+        n_rows,
+        n_cols,
+        figsize=(5.2 * n_cols, 4.0 * n_rows),
+        squeeze=False,
+        layout="constrained",
     )
-    for ax, (m, cells) in zip(axes[0], panels, strict=True):
+    for ax in axes.ravel()[len(panels) :]:
+        ax.set_visible(False)
+    for ax, (m, cells) in zip(axes.ravel(), panels, strict=False):
         forces = sorted({f for f, _ in cells})
         speeds = sorted({s for _, s in cells})
         hole = (NOMINAL_FORCE_N, NOMINAL_SPEED_MM_S)
@@ -226,7 +220,7 @@ def selection_bars(records: Sequence[dict], path: str | Path) -> Path:
     the selected features (lines, right axis), medians over folds/splits."""
     labels, med_d, pvdf, sg, n = [], [], [], [], []
     for protocol, label in SELECTION_ORDER:
-        rs = [r for r in records if r.get("record") == "selection" and r["protocol"] == protocol]
+        rs = select(records, "selection", protocol=protocol)
         if not rs:
             continue
         labels.append(label)

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from . import paper_reference as paper
+from .results import select
 
 TIMING_START = "<!-- timing -->"
 TIMING_END = "<!-- /timing -->"
@@ -31,11 +32,7 @@ def strip_timing(text: str) -> str:
 
 
 def _acc(records: Sequence[dict], **match: Any) -> list[dict]:
-    return [
-        r
-        for r in records
-        if r.get("record") == "accuracy" and all(r.get(k) == v for k, v in match.items())
-    ]
+    return select(records, "accuracy", **match)
 
 
 def _one(records: Sequence[dict], **match: Any) -> dict | None:
@@ -229,7 +226,7 @@ def perturbation_grid_section(records: Sequence[dict]) -> list[str]:
 
 def interpretability_section(records: Sequence[dict]) -> list[str]:
     lines = ["## Interpretability (Fig. 6, Fig. 7)", ""]
-    sel = [r for r in records if r.get("record") == "selection"]
+    sel = select(records, "selection")
     if sel:
         lines.append(
             "AFOP-ML's chosen D and the share of PVDF / SG features among its top-D, "
@@ -275,7 +272,7 @@ def interpretability_section(records: Sequence[dict]) -> list[str]:
             rows,
         )
         lines.append("")
-    tsne = [r for r in records if r.get("record") == "tsne"]
+    tsne = select(records, "tsne")
     if tsne:
         t = tsne[0]
         lines.append(

@@ -29,6 +29,7 @@ from tactile_synth.threads import describe as describe_threads
 
 from . import figures
 from .protocols.generalisation import check_methods, closed_set_reference, dataset_features
+from .results import select
 from .splits import CROSS_SHAPE_FOLDS
 
 ALL_PROTOCOLS: tuple[str, ...] = ("closed-set", "cross-shape", "cross-material", "perturbation")
@@ -227,9 +228,9 @@ def benchmark_all(
     extra, artefacts = interpretability(
         data, features, episodes=budget.default, seed=seed, progress=progress
     )
-    if not any(r.get("record") == "selection" and r["protocol"] == "closed-set" for r in records):
-        records += [r for r in extra if r.get("record") == "selection"]
-    records += [r for r in extra if r.get("record") != "selection"]
+    if not select(records, "selection", protocol="closed-set"):
+        records += select(extra, "selection")
+    records += [r for r in extra if r["record"] != "selection"]
 
     write_results(out / "results.json", records)
     _log(progress, "drawing figures")
@@ -281,7 +282,7 @@ def interpretability(
     record, and the t-SNE of the closed-set test half in its top-D space + indicators."""
     from .interpret import tsne_embedding, tsne_indicators
     from .protocols.generalisation import selection_of
-    from .results import tsne_record
+    from .results import dscan_record, tsne_record
 
     ref = closed_set_reference(
         data, episodes=episodes, seed=seed, progress=progress, features=features
@@ -292,14 +293,12 @@ def interpretability(
     dscan = getattr(model, "dscan_", None)
     if dscan is not None:
         records.append(
-            {
-                "record": "dscan",
-                "protocol": "closed-set",
-                "fold": None,
-                "D": [int(d) for d in np.asarray(dscan["D"])],
-                "mean": [float(x) for x in np.asarray(dscan["mean"])],
-                "ci95": [float(x) for x in np.asarray(dscan["ci95"])],
-            }
+            dscan_record(
+                protocol="closed-set",
+                D=np.asarray(dscan["D"]).tolist(),
+                mean=np.asarray(dscan["mean"]).tolist(),
+                ci95=np.asarray(dscan["ci95"]).tolist(),
+            )
         )
     test = ref.test_idx
     top = features[test][:, np.asarray(model.selected_)]
@@ -351,14 +350,12 @@ def draw_figures(
         made["dscan"] = FIGURE_FILES["dscan"]
     figures.generalisation_curves(records, out / FIGURE_FILES["generalisation"])
     made["generalisation"] = FIGURE_FILES["generalisation"]
-    pert_methods = [
-        m
-        for m in dict.fromkeys(r["method"] for r in records if r.get("record") == "accuracy")
-        if any(r.get("protocol") == "perturbation" and r.get("method") == m for r in records)
-    ]
+    pert_methods = list(
+        dict.fromkeys(r["method"] for r in select(records, "accuracy", protocol="perturbation"))
+    )
     if pert_methods:
         figures.perturbation_heatmap(
-            records, out / FIGURE_FILES["perturbation_heatmap"], methods=pert_methods[:4]
+            records, out / FIGURE_FILES["perturbation_heatmap"], methods=pert_methods
         )
         made["perturbation_heatmap"] = FIGURE_FILES["perturbation_heatmap"]
     figures.selection_bars(records, out / FIGURE_FILES["selection"])
@@ -374,9 +371,8 @@ def draw_figures(
 
 def _episodes_of(records: Sequence[dict], **match: Any) -> str:
     eps: dict[str, set[int]] = {}
-    for r in records:
-        if r.get("record") == "accuracy" and all(r.get(k) == v for k, v in match.items()):
-            eps.setdefault(r["method"], set()).add(r["episodes"])
+    for r in select(records, "accuracy", **match):
+        eps.setdefault(r["method"], set()).add(r["episodes"])
     return ", ".join(f"{m} {'/'.join(map(str, sorted(e)))}" for m, e in eps.items())
 
 
@@ -417,7 +413,7 @@ def figure_notes(
         "1 N / 10 mm/s; episodes per cell: "
         f"[{_episodes_of(records, protocol='perturbation', way=5)}]."
     )
-    sel = [r for r in records if r.get("record") == "selection"]
+    sel = select(records, "selection")
     notes["selection"] = (
         "Median AFOP-ML D per task (bars) and PVDF / SG shares of the selected features "
         f"(lines); {len(sel)} fits (3 folds each for cross-shape and cross-material, 1 each "

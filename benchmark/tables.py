@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from .paper_reference import TABLE_ONE_COLUMNS
+from .results import select
 
 
 def table_one(records: Sequence[dict]) -> str:
@@ -13,13 +14,7 @@ def table_one(records: Sequence[dict]) -> str:
     5-way-5-shot episode (ms, one episode at a time, features precomputed), and the same
     including the feature extraction. The batched throughput is not shown here: it is a
     different measure (see the report's timing section)."""
-    rs = [
-        r
-        for r in records
-        if r.get("record") == "accuracy"
-        and r.get("protocol") == "closed-set"
-        and r.get("condition") is None
-    ]
+    rs = select(records, "accuracy", protocol="closed-set", condition=None)
     methods = list(dict.fromkeys(r["method"] for r in rs))
     cols = [c for c in TABLE_ONE_COLUMNS if any((r["shot"], r["way"]) == c for r in rs)]
     header = [

@@ -26,8 +26,8 @@ def _one_torch_thread():
 
 
 FIELDS = {
-    "record", "protocol", "fold", "condition", "method", "way", "shot", "query", "episodes",
-    "accuracy", "ci95", "pretrain_s", "adapt_ms_per_episode", "latency_ms_per_episode",
+    "record", "schema_version", "protocol", "fold", "condition", "method", "way", "shot", "query",
+    "episodes", "accuracy", "ci95", "pretrain_s", "adapt_ms_per_episode", "latency_ms_per_episode",
     "latency_with_features_ms_per_episode", "latency_episodes", "feature_dim",
 }  # fmt: skip
 
