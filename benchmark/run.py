@@ -440,14 +440,17 @@ class RunPlan:
     budget: Budget
 
 
-def run_plan(quick: bool, *, seed: int = 0) -> RunPlan:
-    """The full (``paper`` + ``perturbation`` presets) or ``--quick`` plan.
+def run_plan(quick: bool, *, seed: int = 0, methods: Sequence[str] | None = None) -> RunPlan:
+    """The full (``paper`` + ``perturbation`` presets) or ``--quick`` plan; ``methods``
+    replaces the plan's methods (default: all seven, :data:`QUICK_METHODS` when quick).
 
-    Budgets (:data:`FULL_BUDGET`): the same for every method, the paper's 500 episodes per
+    Budgets (:func:`full_budget`): the same for every method, the paper's 500 episodes per
     closed-set column and 100 per generalisation point (11 ways x 3 folds or 9
     conditions each); every record carries its own ``episodes``.
     """
     from synth.presets import preset
+
+    chosen = None if methods is None else check_methods(methods)
 
     if quick:
         nominal = preset("quick").replace(seed=seed)
@@ -458,18 +461,24 @@ def run_plan(quick: bool, *, seed: int = 0) -> RunPlan:
             speeds_mm_s=(6.0, 14.0),
             seed=seed,
         )
-        return RunPlan(nominal, pert, QUICK_METHODS, QUICK_BUDGET)
+        return RunPlan(nominal, pert, chosen or QUICK_METHODS, QUICK_BUDGET)
+    chosen = chosen or METHOD_NAMES
     return RunPlan(
         preset("paper").replace(seed=seed),
         preset("perturbation").replace(seed=seed),
-        METHOD_NAMES,
-        FULL_BUDGET,
+        chosen,
+        full_budget(chosen),
     )
 
 
-#: Episode budgets of the full run: the same for every method, the paper's 500 episodes
-#: per closed-set column and 100 per generalisation point (fold or condition x way).
-FULL_BUDGET = Budget(default=500, generalisation_per_method=dict.fromkeys(METHOD_NAMES, 100))
+def full_budget(methods: Sequence[str]) -> Budget:
+    """Episode budgets of the full run, the same for every one of ``methods``: the paper's
+    500 episodes per closed-set column and 100 per generalisation point (fold or condition
+    x way)."""
+    return Budget(default=500, generalisation_per_method=dict.fromkeys(methods, 100))
+
+
+FULL_BUDGET = full_budget(METHOD_NAMES)
 QUICK_METHODS: tuple[str, ...] = ("AFOP-ML", "AFO-MLP-ML", "Direct-Prot-ML")
 QUICK_BUDGET = Budget(default=100)
 
@@ -481,11 +490,14 @@ def run(
     seed: int = 0,
     progress: bool = True,
     workers: int | None = None,
+    methods: Sequence[str] | None = None,
     simulator: Any = None,
     overwrite: bool = False,
 ) -> list[dict]:
     """Generate the nominal and perturbation datasets into ``out/data`` (reusing or
-    completing any already there) and run :func:`benchmark_all` into ``out``.
+    completing any already there) and run :func:`benchmark_all` into ``out`` with the
+    plan's methods, or ``methods`` (names, plug-in names or ``module:Class``; must include
+    AFOP-ML).
 
     ``out`` is refused if it holds files this tool did not write, unless ``overwrite``;
     its output set is replaced at once at the end, its datasets and checkpoints kept
@@ -501,7 +513,9 @@ def run(
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise FileExistsError(f"--out {out} is a file; choose a directory")
-    plan = run_plan(quick, seed=seed)
+    plan = run_plan(quick, seed=seed, methods=methods)
+    if "AFOP-ML" not in plan.methods:
+        raise ValueError("methods must include AFOP-ML (the report and Fig. 6/7 are about it)")
     with OutputDir(out, overwrite=overwrite, command="run") as target:
         paths = {}
         for name, config in (("nominal", plan.nominal), ("perturbation", plan.perturbation)):

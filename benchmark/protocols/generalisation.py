@@ -20,9 +20,10 @@ from dataclasses import dataclass
 import numpy as np
 from tqdm.auto import tqdm
 
+from models import registry
 from models.base import FewShotMethod
-from models.registry import METHOD_NAMES, make_method
-from shapes.validation import check_choice, check_int
+from models.registry import make_method
+from shapes.validation import check_int
 from synth import Dataset
 
 from ..episodes import sample_episodes
@@ -51,12 +52,9 @@ class Task:
 
 
 def check_methods(methods: Sequence[str]) -> tuple[str, ...]:
-    """Validate method names (unknown names raise with the valid list); keep order."""
-    if isinstance(methods, str) or not methods:
-        raise ValueError(f"methods must be a non-empty list of {', '.join(METHOD_NAMES)}")
-    for m in methods:
-        check_choice("method", m, METHOD_NAMES)
-    return tuple(dict.fromkeys(methods))
+    """Validate method names, plug-in names or ``module:Class`` specs (unknown names
+    raise with the valid list, see :func:`models.registry.check_methods`); keep order."""
+    return registry.check_methods(methods, arg="method")
 
 
 def episodes_for(method: str, episodes: int, method_episodes: Mapping[str, int] | None) -> int:
