@@ -20,6 +20,7 @@ import numpy as np
 
 from shapes import SHAPE_NAMES
 from synth import CHANNELS, MATERIAL_NAMES, SAMPLE_RATE_HZ, Dataset
+from synth.presets import NOMINAL_FORCE_N, NOMINAL_SPEED_MM_S
 
 from .results import select
 from .splits import parse_condition
@@ -56,9 +57,6 @@ MATERIAL_COLOURS: dict[str, str] = {
 DPI = 120
 #: Panels per row of the perturbation heat map (more methods wrap onto further rows).
 HEATMAP_COLUMNS = 4
-#: The nominal condition of the paper (Section III), absent from the perturbation grid.
-NOMINAL_FORCE_N = 1.0
-NOMINAL_SPEED_MM_S = 10.0
 
 
 def _save(fig: plt.Figure, path: str | Path) -> Path:
@@ -310,49 +308,24 @@ def tsne_scatter(
 
 
 def example_signals(data: Dataset, path: str | Path) -> Path:
-    """One trial per class (the first of each): 12 shapes (rows) x 3 materials (columns),
-    the 4 channels each min-max scaled and stacked with an offset."""
-    fig, axes = plt.subplots(
-        len(SHAPE_NAMES),
-        len(MATERIAL_NAMES),
-        figsize=(10, 17),
-        sharex=True,
-        sharey=True,
-        layout="constrained",
+    """The first trial of each class in a shapes x materials grid, drawn as
+    :func:`synth.plot.plot_example_grid` draws a store's examples."""
+    from synth.plot import example_rows, plot_example_grid
+    from synth.presets import condition_name
+
+    n = len(data)
+    rows = example_rows(data.label, np.zeros(n, dtype=np.int64), np.ones(n, dtype=bool))
+    names = {cls: f"{data.shape[i]}/{data.material[i]}" for cls, i in rows.items()}
+    return plot_example_grid(
+        {names[cls]: data.signals[i] for cls, i in rows.items()},
+        path,
+        shapes=[s for s in SHAPE_NAMES if np.any(data.shape == s)],
+        materials=[m for m in MATERIAL_NAMES if np.any(data.material == m)],
+        channels=CHANNELS,
+        sample_rate_hz=SAMPLE_RATE_HZ,
+        notes={
+            names[cls]: condition_name(float(data.force_n[i]), float(data.speed_mm_s[i]))
+            for cls, i in rows.items()
+        },
+        title="Example signals: the first trial of each class",
     )
-    colours = ("tab:red", "tab:orange", "tab:blue", "tab:cyan")
-    for i, s in enumerate(SHAPE_NAMES):
-        for j, m in enumerate(MATERIAL_NAMES):
-            ax = axes[i, j]
-            idx = np.flatnonzero((data.shape == s) & (data.material == m))
-            if idx.size:
-                sig = data.signals[idx[0]].astype(np.float64)
-                t = np.arange(sig.shape[1]) / SAMPLE_RATE_HZ
-                for c in range(sig.shape[0]):
-                    x = sig[c]
-                    span = x.max() - x.min()
-                    x = (x - x.min()) / (span if span > 0 else 1.0)
-                    ax.plot(
-                        t,
-                        x + 1.1 * (sig.shape[0] - 1 - c),
-                        color=colours[c],
-                        lw=0.5,
-                        label=CHANNELS[c],
-                    )
-            ax.set_yticks([])
-            if i == 0:
-                ax.set_title(m)
-            if j == 0:
-                ax.set_ylabel(f"S{i + 1} {s}", fontsize=8)
-            if i == len(SHAPE_NAMES) - 1:
-                ax.set_xlabel("time (s)")
-    handles, labels = axes[0, 0].get_legend_handles_labels()
-    if handles:
-        fig.legend(
-            handles,
-            labels,
-            loc="outside upper center",
-            ncol=4,
-            title="Example signals per class (first trial; each channel min-max scaled)",
-        )
-    return _save(fig, path)

@@ -380,7 +380,9 @@ def figure_notes(
     records: Sequence[dict], art: Artefacts, budget: Budget, seed: int
 ) -> dict[str, str]:
     """One-paragraph summary of each figure: what it shows, numbers, episode counts."""
-    from .report import _one
+
+    def _one(records: Sequence[dict], **match: Any) -> dict | None:
+        return next(iter(select(records, "accuracy", **match)), None)
 
     notes: dict[str, str] = {}
     if art.dscan is not None:
@@ -426,7 +428,10 @@ def figure_notes(
         f"1-NN = {ind['nn1_shape_accuracy']:.3f}, mix-sil = {ind['mix_sil']:.3f}, "
         f"DGI = {ind['dgi']:.3f} (t-SNE seed {seed})."
     )
-    notes["signals"] = "The first trial of each of the 36 classes, 4 channels each."
+    notes["signals"] = (
+        "The first trial of each class, 4 channels each, every channel standardised over "
+        "the plotted trials."
+    )
     return notes
 
 

@@ -23,6 +23,7 @@ from tqdm.auto import tqdm
 from models import registry
 from models.base import FewShotMethod
 from models.registry import make_method
+from models.stats import ci95
 from shapes.validation import check_int
 from synth import Dataset
 
@@ -231,7 +232,7 @@ def pool_folds(pairs: Sequence[tuple[dict, np.ndarray]]) -> list[dict]:
             fold=None,
             episodes=int(acc.size),
             accuracy=float(acc.mean()),
-            ci95=float(1.96 * acc.std() / np.sqrt(acc.size)),
+            ci95=ci95(acc),
             query=int(min(r["query"] for r, _ in rs)),
             pretrain_s=float(np.mean([r["pretrain_s"] for r, _ in rs])),
             adapt_ms_per_episode=float(np.mean([r["adapt_ms_per_episode"] for r, _ in rs])),
