@@ -15,10 +15,30 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     _register_diagnose(subparsers)
 
 
-def _register_benchmark(subparsers: argparse._SubParsersAction) -> None:
-    """``tactile-synth benchmark PROTOCOL``: evaluate methods on existing datasets."""
+METHODS_HELP = (
+    "methods to evaluate: built-in names ({builtin}), names of installed plug-ins "
+    "(entry point group tactile_synth.methods), or module:Class / path/to/file.py:Class "
+    "of a FewShotMethod subclass (docs/methods.md); default: {default}"
+)
+
+
+def _methods_help(default: str) -> str:
     from models.registry import METHOD_NAMES
 
+    return METHODS_HELP.format(builtin=", ".join(METHOD_NAMES), default=default)
+
+
+def _check_methods_arg(methods: list[str] | None) -> None:
+    """Fail fast, naming --methods, on a method that cannot be found or is no
+    FewShotMethod (before any dataset is read or generated)."""
+    if methods is not None:
+        from models.registry import check_methods
+
+        check_methods(methods, arg="--methods")
+
+
+def _register_benchmark(subparsers: argparse._SubParsersAction) -> None:
+    """``tactile-synth benchmark PROTOCOL``: evaluate methods on existing datasets."""
     from .protocols import PROTOCOL_NAMES
 
     p = subparsers.add_parser(
@@ -41,7 +61,7 @@ def _register_benchmark(subparsers: argparse._SubParsersAction) -> None:
         nargs="+",
         default=None,
         metavar="NAME",
-        help=f"methods (default: all): {', '.join(METHOD_NAMES)}",
+        help=_methods_help("the seven built-in methods"),
     )
     p.add_argument("--episodes", type=int, default=500, help="episodes per cell (default 500)")
     p.add_argument("--seed", type=int, default=0, help="seed of splits and episodes (default 0)")
@@ -57,6 +77,7 @@ def _register_benchmark(subparsers: argparse._SubParsersAction) -> None:
 def _benchmark(args: argparse.Namespace) -> int:
     from .single import benchmark_protocol
 
+    _check_methods_arg(args.methods)
     benchmark_protocol(
         args.protocol,
         data_path=args.data,
@@ -90,6 +111,13 @@ def _register_run(subparsers: argparse._SubParsersAction) -> None:
         "--workers", type=int, help="generation processes (default 1; N > 1 share the CPUs)"
     )
     p.add_argument(
+        "--methods",
+        nargs="+",
+        default=None,
+        metavar="NAME",
+        help=_methods_help("all seven, or three with --quick; must include AFOP-ML"),
+    )
+    p.add_argument(
         "--overwrite",
         action="store_true",
         help="replace the contents of a non-empty DIR that tactile-synth did not write "
@@ -105,9 +133,11 @@ def _run(args: argparse.Namespace) -> int:
 
     from .run import run
 
+    _check_methods_arg(args.methods)
     try:
         run(
             args.out,
+            methods=args.methods,
             quick=args.quick,
             seed=args.seed,
             workers=args.workers,

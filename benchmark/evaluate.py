@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from models.base import FewShotMethod
+from models.stats import ci95
 from shapes.validation import check_int
 
 from .episodes import EpisodeBatch
@@ -53,12 +54,6 @@ class EvalResult:
     def adapt_ms_per_episode(self) -> float:
         """Batched throughput (``batch_ms_per_episode``), under the results.json name."""
         return self.batch_ms_per_episode
-
-
-def ci95(accuracies: np.ndarray) -> float:
-    """Half-width of the 95% normal CI of the mean over episodes."""
-    a = np.asarray(accuracies, dtype=np.float64)
-    return float(1.96 * a.std() / np.sqrt(a.size)) if a.size else float("nan")
 
 
 def evaluate(

@@ -20,7 +20,9 @@ import numpy as np
 
 from shapes import SHAPE_NAMES
 from synth import CHANNELS, MATERIAL_NAMES, SAMPLE_RATE_HZ, Dataset
+from synth.presets import NOMINAL_FORCE_N, NOMINAL_SPEED_MM_S
 
+from .results import select
 from .splits import parse_condition
 
 #: Panel order and titles of Fig. 5.
@@ -53,9 +55,8 @@ MATERIAL_COLOURS: dict[str, str] = {
     "aluminum": "tab:gray",
 }
 DPI = 120
-#: The nominal condition of the paper (Section III), absent from the perturbation grid.
-NOMINAL_FORCE_N = 1.0
-NOMINAL_SPEED_MM_S = 10.0
+#: Panels per row of the perturbation heat map (more methods wrap onto further rows).
+HEATMAP_COLUMNS = 4
 
 
 def _save(fig: plt.Figure, path: str | Path) -> Path:
@@ -67,11 +68,7 @@ def _save(fig: plt.Figure, path: str | Path) -> Path:
 
 
 def _curve(records: Sequence[dict], **match: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    rs = [
-        r
-        for r in records
-        if r.get("record") == "accuracy" and all(r.get(k) == v for k, v in match.items())
-    ]
+    rs = select(records, "accuracy", **match)
     rs.sort(key=lambda r: r["way"])
     way = np.array([r["way"] for r in rs])
     acc = np.array([r["accuracy"] for r in rs]) * 100
@@ -100,7 +97,7 @@ def generalisation_curves(records: Sequence[dict], path: str | Path) -> Path:
     """Fig. 5: 1-shot accuracy vs N-way per protocol, one line + 95 % CI band per method,
     the closed-set AFOP-ML curve (``protocol="closed-set", condition="reference"``) dashed.
     Uses the across-fold records (``fold=None``)."""
-    methods = list(dict.fromkeys(r["method"] for r in records if r.get("record") == "accuracy"))
+    methods = list(dict.fromkeys(r["method"] for r in select(records, "accuracy")))
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.2), sharey=True)
     ref = _curve(records, protocol="closed-set", condition="reference", shot=1)
     for ax, (protocol, condition, title) in zip(axes, GENERALISATION_PANELS, strict=True):
@@ -145,45 +142,40 @@ def perturbation_heatmap(
     way: int = 5,
     nominal_method: str = "AFOP-ML",
 ) -> Path:
-    """5-way-1-shot accuracy over the force x speed grid, one panel per method.
+    """5-way-1-shot accuracy over the force x speed grid, one panel per method (every
+    method of ``methods`` that has perturbation records, :data:`HEATMAP_COLUMNS` per row).
 
     The perturbation dataset leaves out the nominal condition; where the grid has a hole
     at 1 N / 10 mm/s, the AFOP-ML panel shows the closed-set reference (nominal test half,
     ``condition="reference"``) there, labelled "nominal", for comparison.
     """
     nominal = next(
-        (
-            r
-            for r in records
-            if r.get("record") == "accuracy"
-            and r["protocol"] == "closed-set"
-            and r["condition"] == "reference"
-            and r["way"] == way
-        ),
+        iter(select(records, "accuracy", protocol="closed-set", condition="reference", way=way)),
         None,
     )
     panels = []
     for m in methods:
         cells = {}
-        for r in records:
-            if (
-                r.get("record") == "accuracy"
-                and r["protocol"] == "perturbation"
-                and r["method"] == m
-                and r["way"] == way
-                and r["shot"] == 1
-            ):
-                fs = parse_condition(r["condition"])
-                if fs is not None:
-                    cells[fs] = r
+        for r in select(records, "accuracy", protocol="perturbation", method=m, way=way, shot=1):
+            fs = parse_condition(r["condition"])
+            if fs is not None:
+                cells[fs] = r
         if cells:
             panels.append((m, cells))
     if not panels:
         raise ValueError("no per-condition perturbation records to draw")
+    n_cols = min(len(panels), HEATMAP_COLUMNS)
+    n_rows = -(-len(panels) // n_cols)
     fig, axes = plt.subplots(
-        1, len(panels), figsize=(5.2 * len(panels), 4.0), squeeze=False, layout="constrained"
+        n_rows,
+        n_cols,
+        figsize=(5.2 * n_cols, 4.0 * n_rows),
+        squeeze=False,
+        layout="constrained",
     )
-    for ax, (m, cells) in zip(axes[0], panels, strict=True):
+    for ax in axes.ravel()[len(panels) :]:
+        ax.set_visible(False)
+    for ax, (m, cells) in zip(axes.ravel(), panels, strict=False):
         forces = sorted({f for f, _ in cells})
         speeds = sorted({s for _, s in cells})
         hole = (NOMINAL_FORCE_N, NOMINAL_SPEED_MM_S)
@@ -226,7 +218,7 @@ def selection_bars(records: Sequence[dict], path: str | Path) -> Path:
     the selected features (lines, right axis), medians over folds/splits."""
     labels, med_d, pvdf, sg, n = [], [], [], [], []
     for protocol, label in SELECTION_ORDER:
-        rs = [r for r in records if r.get("record") == "selection" and r["protocol"] == protocol]
+        rs = select(records, "selection", protocol=protocol)
         if not rs:
             continue
         labels.append(label)
@@ -316,49 +308,24 @@ def tsne_scatter(
 
 
 def example_signals(data: Dataset, path: str | Path) -> Path:
-    """One trial per class (the first of each): 12 shapes (rows) x 3 materials (columns),
-    the 4 channels each min-max scaled and stacked with an offset."""
-    fig, axes = plt.subplots(
-        len(SHAPE_NAMES),
-        len(MATERIAL_NAMES),
-        figsize=(10, 17),
-        sharex=True,
-        sharey=True,
-        layout="constrained",
+    """The first trial of each class in a shapes x materials grid, drawn as
+    :func:`synth.plot.plot_example_grid` draws a store's examples."""
+    from synth.plot import example_rows, plot_example_grid
+    from synth.presets import condition_name
+
+    n = len(data)
+    rows = example_rows(data.label, np.zeros(n, dtype=np.int64), np.ones(n, dtype=bool))
+    names = {cls: f"{data.shape[i]}/{data.material[i]}" for cls, i in rows.items()}
+    return plot_example_grid(
+        {names[cls]: data.signals[i] for cls, i in rows.items()},
+        path,
+        shapes=[s for s in SHAPE_NAMES if np.any(data.shape == s)],
+        materials=[m for m in MATERIAL_NAMES if np.any(data.material == m)],
+        channels=CHANNELS,
+        sample_rate_hz=SAMPLE_RATE_HZ,
+        notes={
+            names[cls]: condition_name(float(data.force_n[i]), float(data.speed_mm_s[i]))
+            for cls, i in rows.items()
+        },
+        title="Example signals: the first trial of each class",
     )
-    colours = ("tab:red", "tab:orange", "tab:blue", "tab:cyan")
-    for i, s in enumerate(SHAPE_NAMES):
-        for j, m in enumerate(MATERIAL_NAMES):
-            ax = axes[i, j]
-            idx = np.flatnonzero((data.shape == s) & (data.material == m))
-            if idx.size:
-                sig = data.signals[idx[0]].astype(np.float64)
-                t = np.arange(sig.shape[1]) / SAMPLE_RATE_HZ
-                for c in range(sig.shape[0]):
-                    x = sig[c]
-                    span = x.max() - x.min()
-                    x = (x - x.min()) / (span if span > 0 else 1.0)
-                    ax.plot(
-                        t,
-                        x + 1.1 * (sig.shape[0] - 1 - c),
-                        color=colours[c],
-                        lw=0.5,
-                        label=CHANNELS[c],
-                    )
-            ax.set_yticks([])
-            if i == 0:
-                ax.set_title(m)
-            if j == 0:
-                ax.set_ylabel(f"S{i + 1} {s}", fontsize=8)
-            if i == len(SHAPE_NAMES) - 1:
-                ax.set_xlabel("time (s)")
-    handles, labels = axes[0, 0].get_legend_handles_labels()
-    if handles:
-        fig.legend(
-            handles,
-            labels,
-            loc="outside upper center",
-            ncol=4,
-            title="Example signals per class (first trial; each channel min-max scaled)",
-        )
-    return _save(fig, path)

@@ -18,6 +18,8 @@ from typing import Any
 import numpy as np
 
 from . import paper_reference as paper
+from .results import select
+from .tables import episodes_note, markdown_table, ms, pct, table_one_lines
 
 TIMING_START = "<!-- timing -->"
 TIMING_END = "<!-- /timing -->"
@@ -31,11 +33,7 @@ def strip_timing(text: str) -> str:
 
 
 def _acc(records: Sequence[dict], **match: Any) -> list[dict]:
-    return [
-        r
-        for r in records
-        if r.get("record") == "accuracy" and all(r.get(k) == v for k, v in match.items())
-    ]
+    return select(records, "accuracy", **match)
 
 
 def _one(records: Sequence[dict], **match: Any) -> dict | None:
@@ -43,50 +41,24 @@ def _one(records: Sequence[dict], **match: Any) -> dict | None:
     return rs[0] if rs else None
 
 
-def _pct(r: dict | None) -> str:
-    return "-" if r is None else f"{100 * r['accuracy']:.2f} ± {100 * r['ci95']:.2f}"
-
-
 def _methods(records: Sequence[dict], protocol: str) -> list[str]:
     return list(dict.fromkeys(r["method"] for r in _acc(records, protocol=protocol)))
-
-
-def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
-    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    out += ["| " + " | ".join(row) + " |" for row in rows]
-    return out
-
-
-def _episodes_note(rs: Sequence[dict]) -> str:
-    eps = sorted({r["episodes"] for r in rs})
-    return "/".join(str(e) for e in eps) if eps else "-"
 
 
 # -- sections ------------------------------------------------------------------------------
 def closed_set_section(records: Sequence[dict]) -> list[str]:
     """Table-I-like closed-set accuracy table (accuracy only; times are in the timing
     section) and AFOP-ML side by side with the paper's Table I."""
-    rs = [r for r in _acc(records, protocol="closed-set") if r["condition"] is None]
+    rs = _acc(records, protocol="closed-set", condition=None)
     if not rs:
         return ["## Closed-set (Table I)", "", "Not run.", ""]
-    cols = [
-        (k, n)
-        for k, n in paper.TABLE_ONE_COLUMNS
-        if any(r["shot"] == k and r["way"] == n for r in rs)
-    ]
-    cols += sorted({(r["shot"], r["way"]) for r in rs} - set(cols))
     lines = ["## Closed-set accuracy (Table I)", ""]
     lines.append(
         "Accuracy in % (mean ± 95 % CI over episodes); each cell from its own episodes "
         "(count in the last column). Columns: K-shot / N-way."
     )
     lines.append("")
-    header = ["method", *[f"{k}-shot {n}-way" for k, n in cols], "episodes"]
-    rows = []
-    for m in _methods(rs, "closed-set"):
-        cells = [_pct(_one(rs, method=m, shot=k, way=n)) for k, n in cols]
-        rows.append([m, *cells, _episodes_note([r for r in rs if r["method"] == m])])
-    lines += _table(header, rows)
+    lines += table_one_lines(rs, timing=False)
     lines += ["", "### AFOP-ML here vs the paper's Table I", ""]
     lines.append(
         f"Paper values typed in from {paper.CITATION} (real sensor data); ours on the "
@@ -98,16 +70,18 @@ def closed_set_section(records: Sequence[dict]) -> list[str]:
         ours = _one(rs, method="AFOP-ML", shot=k, way=n)
         ref = paper.TABLE_ONE_ACCURACY_PCT["AFOP-ML"][(k, n)]
         diff = "-" if ours is None else f"{100 * ours['accuracy'] - ref:+.2f}"
-        side.append([f"{k}-shot {n}-way", _pct(ours), f"{ref:.2f}", diff])
-    lines += _table(["task", "AFOP-ML here (%)", "AFOP-ML paper (%)", "difference (pp)"], side)
+        side.append([f"{k}-shot {n}-way", pct(ours), f"{ref:.2f}", diff])
+    lines += markdown_table(
+        ["task", "AFOP-ML here (%)", "AFOP-ML paper (%)", "difference (pp)"], side
+    )
     lines += ["", "All methods against the paper (1-shot 5-way, pp = ours − paper):", ""]
     rows = []
     for m in _methods(rs, "closed-set"):
         ours = _one(rs, method=m, shot=1, way=5)
         ref = paper.TABLE_ONE_ACCURACY_PCT.get(m, {}).get((1, 5))
         diff = "-" if ours is None or ref is None else f"{100 * ours['accuracy'] - ref:+.2f}"
-        rows.append([m, _pct(ours), "-" if ref is None else f"{ref:.2f}", diff])
-    lines += _table(["method", "here (%)", "paper (%)", "difference (pp)"], rows)
+        rows.append([m, pct(ours), "-" if ref is None else f"{ref:.2f}", diff])
+    lines += markdown_table(["method", "here (%)", "paper (%)", "difference (pp)"], rows)
     return [*lines, ""]
 
 
@@ -117,18 +91,18 @@ def _curve_table(records: Sequence[dict], protocol: str, condition: str | None) 
     header = ["method", *[f"{w}-way" for w in ways], "episodes/way"]
     rows = []
     for m in _methods(rs, protocol):
-        cells = [_pct(_one(rs, method=m, way=w)) for w in ways]
-        rows.append([m, *cells, _episodes_note([r for r in rs if r["method"] == m])])
+        cells = [pct(_one(rs, method=m, way=w)) for w in ways]
+        rows.append([m, *cells, episodes_note([r for r in rs if r["method"] == m])])
     ref = [r for r in _acc(records, protocol="closed-set", condition="reference")]
     if ref:
         rows.append(
             [
                 "closed-set AFOP-ML (reference)",
-                *[_pct(_one(ref, way=w)) for w in ways],
-                _episodes_note(ref),
+                *[pct(_one(ref, way=w)) for w in ways],
+                episodes_note(ref),
             ]
         )
-    return _table(header, rows)
+    return markdown_table(header, rows)
 
 
 def _drop_lines(records: Sequence[dict], protocol: str, condition: str | None) -> list[str]:
@@ -195,9 +169,9 @@ def generalisation_section(records: Sequence[dict], meta: Mapping[str, Any]) -> 
                 fold_ids = list(dict.fromkeys(r["fold"] for r in folds))
                 ways = sorted({r["way"] for r in folds})
                 rows = [
-                    [str(f), *[_pct(_one(folds, fold=f, way=w)) for w in ways]] for f in fold_ids
+                    [str(f), *[pct(_one(folds, fold=f, way=w)) for w in ways]] for f in fold_ids
                 ]
-                lines += _table(["fold", *[f"{w}-way" for w in ways]], rows)
+                lines += markdown_table(["fold", *[f"{w}-way" for w in ways]], rows)
         lines.append("")
     return lines
 
@@ -220,16 +194,16 @@ def perturbation_grid_section(records: Sequence[dict]) -> list[str]:
         cells = {parse_condition(r["condition"]): r for r in mr}
         forces = sorted({f for f, _ in cells})
         speeds = sorted({s for _, s in cells})
-        lines += [f"**{m}** ({_episodes_note(mr)} episodes per cell):", ""]
-        rows = [[f"{f:g} N", *[_pct(cells.get((f, s))) for s in speeds]] for f in forces]
-        lines += _table(["force \\ speed", *[f"{s:g} mm/s" for s in speeds]], rows)
+        lines += [f"**{m}** ({episodes_note(mr)} episodes per cell):", ""]
+        rows = [[f"{f:g} N", *[pct(cells.get((f, s))) for s in speeds]] for f in forces]
+        lines += markdown_table(["force \\ speed", *[f"{s:g} mm/s" for s in speeds]], rows)
         lines.append("")
     return lines
 
 
 def interpretability_section(records: Sequence[dict]) -> list[str]:
     lines = ["## Interpretability (Fig. 6, Fig. 7)", ""]
-    sel = [r for r in records if r.get("record") == "selection"]
+    sel = select(records, "selection")
     if sel:
         lines.append(
             "AFOP-ML's chosen D and the share of PVDF / SG features among its top-D, "
@@ -263,7 +237,7 @@ def interpretability_section(records: Sequence[dict]) -> list[str]:
                     "-" if ref_pv is None else f"{100 * ref_pv:.1f}",
                 ]
             )
-        lines += _table(
+        lines += markdown_table(
             [
                 "task",
                 "median D here (per fold)",
@@ -275,7 +249,7 @@ def interpretability_section(records: Sequence[dict]) -> list[str]:
             rows,
         )
         lines.append("")
-    tsne = [r for r in records if r.get("record") == "tsne"]
+    tsne = select(records, "tsne")
     if tsne:
         t = tsne[0]
         lines.append(
@@ -284,7 +258,7 @@ def interpretability_section(records: Sequence[dict]) -> list[str]:
         )
         lines.append("")
         ref = paper.TSNE_INDICATORS
-        lines += _table(
+        lines += markdown_table(
             ["indicator", "here", f"paper (D={paper.TSNE_D})"],
             [
                 [
@@ -336,10 +310,6 @@ def figures_section(records: Sequence[dict], meta: Mapping[str, Any]) -> list[st
     return [*lines, ""]
 
 
-def _ms(value: float | None) -> str:
-    return "-" if value is None else f"{value:.2f}"
-
-
 def timing_section(records: Sequence[dict]) -> list[str]:
     """Single-episode latency next to the paper's Table I times, then batched throughput
     in a separate table (the two are different measures)."""
@@ -367,15 +337,15 @@ def timing_section(records: Sequence[dict]) -> list[str]:
             [
                 m,
                 f"{rs[0]['pretrain_s']:.2f}",
-                _ms(None if five is None else five.get("latency_ms_per_episode")),
-                _ms(None if five is None else five.get("latency_with_features_ms_per_episode")),
+                ms(None if five is None else five.get("latency_ms_per_episode")),
+                ms(None if five is None else five.get("latency_with_features_ms_per_episode")),
                 "-" if five is None else str(five.get("latency_episodes") or "-"),
                 "-" if paper_time is None else paper_time[0],
                 "-" if paper_time is None else f"{paper_time[1]:g}",
             ]
         )
     if rows:
-        lines += _table(
+        lines += markdown_table(
             [
                 "method",
                 "pretrain (s)",
@@ -416,7 +386,7 @@ def timing_section(records: Sequence[dict]) -> list[str]:
                     f"{pick['way']}-way-{pick['shot']}-shot, {pick['episodes']} episodes",
                 ]
             )
-    lines += _table(
+    lines += markdown_table(
         ["protocol", "method", "pretrain (s)", "batched ms/episode", "task, batch size"], rows
     )
     lines += ["", TIMING_END, ""]

@@ -29,6 +29,7 @@ from tactile_synth.threads import describe as describe_threads
 
 from . import figures
 from .protocols.generalisation import check_methods, closed_set_reference, dataset_features
+from .results import select
 from .splits import CROSS_SHAPE_FOLDS
 
 ALL_PROTOCOLS: tuple[str, ...] = ("closed-set", "cross-shape", "cross-material", "perturbation")
@@ -227,9 +228,9 @@ def benchmark_all(
     extra, artefacts = interpretability(
         data, features, episodes=budget.default, seed=seed, progress=progress
     )
-    if not any(r.get("record") == "selection" and r["protocol"] == "closed-set" for r in records):
-        records += [r for r in extra if r.get("record") == "selection"]
-    records += [r for r in extra if r.get("record") != "selection"]
+    if not select(records, "selection", protocol="closed-set"):
+        records += select(extra, "selection")
+    records += [r for r in extra if r["record"] != "selection"]
 
     write_results(out / "results.json", records)
     _log(progress, "drawing figures")
@@ -281,7 +282,7 @@ def interpretability(
     record, and the t-SNE of the closed-set test half in its top-D space + indicators."""
     from .interpret import tsne_embedding, tsne_indicators
     from .protocols.generalisation import selection_of
-    from .results import tsne_record
+    from .results import dscan_record, tsne_record
 
     ref = closed_set_reference(
         data, episodes=episodes, seed=seed, progress=progress, features=features
@@ -292,14 +293,12 @@ def interpretability(
     dscan = getattr(model, "dscan_", None)
     if dscan is not None:
         records.append(
-            {
-                "record": "dscan",
-                "protocol": "closed-set",
-                "fold": None,
-                "D": [int(d) for d in np.asarray(dscan["D"])],
-                "mean": [float(x) for x in np.asarray(dscan["mean"])],
-                "ci95": [float(x) for x in np.asarray(dscan["ci95"])],
-            }
+            dscan_record(
+                protocol="closed-set",
+                D=np.asarray(dscan["D"]).tolist(),
+                mean=np.asarray(dscan["mean"]).tolist(),
+                ci95=np.asarray(dscan["ci95"]).tolist(),
+            )
         )
     test = ref.test_idx
     top = features[test][:, np.asarray(model.selected_)]
@@ -351,14 +350,12 @@ def draw_figures(
         made["dscan"] = FIGURE_FILES["dscan"]
     figures.generalisation_curves(records, out / FIGURE_FILES["generalisation"])
     made["generalisation"] = FIGURE_FILES["generalisation"]
-    pert_methods = [
-        m
-        for m in dict.fromkeys(r["method"] for r in records if r.get("record") == "accuracy")
-        if any(r.get("protocol") == "perturbation" and r.get("method") == m for r in records)
-    ]
+    pert_methods = list(
+        dict.fromkeys(r["method"] for r in select(records, "accuracy", protocol="perturbation"))
+    )
     if pert_methods:
         figures.perturbation_heatmap(
-            records, out / FIGURE_FILES["perturbation_heatmap"], methods=pert_methods[:4]
+            records, out / FIGURE_FILES["perturbation_heatmap"], methods=pert_methods
         )
         made["perturbation_heatmap"] = FIGURE_FILES["perturbation_heatmap"]
     figures.selection_bars(records, out / FIGURE_FILES["selection"])
@@ -374,9 +371,8 @@ def draw_figures(
 
 def _episodes_of(records: Sequence[dict], **match: Any) -> str:
     eps: dict[str, set[int]] = {}
-    for r in records:
-        if r.get("record") == "accuracy" and all(r.get(k) == v for k, v in match.items()):
-            eps.setdefault(r["method"], set()).add(r["episodes"])
+    for r in select(records, "accuracy", **match):
+        eps.setdefault(r["method"], set()).add(r["episodes"])
     return ", ".join(f"{m} {'/'.join(map(str, sorted(e)))}" for m, e in eps.items())
 
 
@@ -384,7 +380,9 @@ def figure_notes(
     records: Sequence[dict], art: Artefacts, budget: Budget, seed: int
 ) -> dict[str, str]:
     """One-paragraph summary of each figure: what it shows, numbers, episode counts."""
-    from .report import _one
+
+    def _one(records: Sequence[dict], **match: Any) -> dict | None:
+        return next(iter(select(records, "accuracy", **match)), None)
 
     notes: dict[str, str] = {}
     if art.dscan is not None:
@@ -417,7 +415,7 @@ def figure_notes(
         "1 N / 10 mm/s; episodes per cell: "
         f"[{_episodes_of(records, protocol='perturbation', way=5)}]."
     )
-    sel = [r for r in records if r.get("record") == "selection"]
+    sel = select(records, "selection")
     notes["selection"] = (
         "Median AFOP-ML D per task (bars) and PVDF / SG shares of the selected features "
         f"(lines); {len(sel)} fits (3 folds each for cross-shape and cross-material, 1 each "
@@ -430,7 +428,10 @@ def figure_notes(
         f"1-NN = {ind['nn1_shape_accuracy']:.3f}, mix-sil = {ind['mix_sil']:.3f}, "
         f"DGI = {ind['dgi']:.3f} (t-SNE seed {seed})."
     )
-    notes["signals"] = "The first trial of each of the 36 classes, 4 channels each."
+    notes["signals"] = (
+        "The first trial of each class, 4 channels each, every channel standardised over "
+        "the plotted trials."
+    )
     return notes
 
 
@@ -444,14 +445,17 @@ class RunPlan:
     budget: Budget
 
 
-def run_plan(quick: bool, *, seed: int = 0) -> RunPlan:
-    """The full (``paper`` + ``perturbation`` presets) or ``--quick`` plan.
+def run_plan(quick: bool, *, seed: int = 0, methods: Sequence[str] | None = None) -> RunPlan:
+    """The full (``paper`` + ``perturbation`` presets) or ``--quick`` plan; ``methods``
+    replaces the plan's methods (default: all seven, :data:`QUICK_METHODS` when quick).
 
-    Budgets (:data:`FULL_BUDGET`): the same for every method, the paper's 500 episodes per
+    Budgets (:func:`full_budget`): the same for every method, the paper's 500 episodes per
     closed-set column and 100 per generalisation point (11 ways x 3 folds or 9
     conditions each); every record carries its own ``episodes``.
     """
     from synth.presets import preset
+
+    chosen = None if methods is None else check_methods(methods)
 
     if quick:
         nominal = preset("quick").replace(seed=seed)
@@ -462,18 +466,24 @@ def run_plan(quick: bool, *, seed: int = 0) -> RunPlan:
             speeds_mm_s=(6.0, 14.0),
             seed=seed,
         )
-        return RunPlan(nominal, pert, QUICK_METHODS, QUICK_BUDGET)
+        return RunPlan(nominal, pert, chosen or QUICK_METHODS, QUICK_BUDGET)
+    chosen = chosen or METHOD_NAMES
     return RunPlan(
         preset("paper").replace(seed=seed),
         preset("perturbation").replace(seed=seed),
-        METHOD_NAMES,
-        FULL_BUDGET,
+        chosen,
+        full_budget(chosen),
     )
 
 
-#: Episode budgets of the full run: the same for every method, the paper's 500 episodes
-#: per closed-set column and 100 per generalisation point (fold or condition x way).
-FULL_BUDGET = Budget(default=500, generalisation_per_method=dict.fromkeys(METHOD_NAMES, 100))
+def full_budget(methods: Sequence[str]) -> Budget:
+    """Episode budgets of the full run, the same for every one of ``methods``: the paper's
+    500 episodes per closed-set column and 100 per generalisation point (fold or condition
+    x way)."""
+    return Budget(default=500, generalisation_per_method=dict.fromkeys(methods, 100))
+
+
+FULL_BUDGET = full_budget(METHOD_NAMES)
 QUICK_METHODS: tuple[str, ...] = ("AFOP-ML", "AFO-MLP-ML", "Direct-Prot-ML")
 QUICK_BUDGET = Budget(default=100)
 
@@ -485,11 +495,14 @@ def run(
     seed: int = 0,
     progress: bool = True,
     workers: int | None = None,
+    methods: Sequence[str] | None = None,
     simulator: Any = None,
     overwrite: bool = False,
 ) -> list[dict]:
     """Generate the nominal and perturbation datasets into ``out/data`` (reusing or
-    completing any already there) and run :func:`benchmark_all` into ``out``.
+    completing any already there) and run :func:`benchmark_all` into ``out`` with the
+    plan's methods, or ``methods`` (names, plug-in names or ``module:Class``; must include
+    AFOP-ML).
 
     ``out`` is refused if it holds files this tool did not write, unless ``overwrite``;
     its output set is replaced at once at the end, its datasets and checkpoints kept
@@ -505,7 +518,9 @@ def run(
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise FileExistsError(f"--out {out} is a file; choose a directory")
-    plan = run_plan(quick, seed=seed)
+    plan = run_plan(quick, seed=seed, methods=methods)
+    if "AFOP-ML" not in plan.methods:
+        raise ValueError("methods must include AFOP-ML (the report and Fig. 6/7 are about it)")
     with OutputDir(out, overwrite=overwrite, command="run") as target:
         paths = {}
         for name, config in (("nominal", plan.nominal), ("perturbation", plan.perturbation)):

@@ -14,7 +14,7 @@ from .guards import check_episodes, check_perturbation_pair
 from .outputs import OutputDir
 from .protocols import PROTOCOL_NAMES, protocol_runner
 from .protocols.generalisation import check_methods
-from .results import write_results
+from .results import select, write_results
 from .tables import table_one
 
 
@@ -81,7 +81,7 @@ def benchmark_protocol(
         else:
             figures.generalisation_curves(records, out / "generalisation.png")
             made["generalisation"] = "generalisation.png"
-        if any(r.get("record") == "selection" for r in records):
+        if select(records, "selection"):
             figures.selection_bars(records, out / "selection.png")
             made["selection"] = "selection.png"
         meta = {

@@ -29,14 +29,27 @@ the 24 classes of the other two.
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 
 import numpy as np
 
-from shapes import SHAPE_NAMES
+from shapes import SHAPE_NAMES, is_curved
 from shapes.validation import check_choice, check_int
 from synth import MATERIAL_NAMES, Dataset
+from synth.presets import condition_name, parse_condition
+
+__all__ = [
+    "CROSS_SHAPE_FOLDS",
+    "CURVED_SHAPES",
+    "Split",
+    "condition_name",
+    "cross_material_split",
+    "cross_material_splits",
+    "cross_shape_split",
+    "cross_shape_splits",
+    "cross_shape_test_shapes",
+    "parse_condition",
+]
 
 #: Test shapes of each cross-shape fold (see the module docstring for the rationale).
 CROSS_SHAPE_FOLDS: tuple[tuple[str, ...], ...] = (
@@ -45,9 +58,8 @@ CROSS_SHAPE_FOLDS: tuple[tuple[str, ...], ...] = (
     ("semicircle", "pentagon", "parallelogram", "trapezoid"),
 )
 
-_CONDITION = re.compile(r"force=([0-9.eE+-]+)N,speed=([0-9.eE+-]+)mm/s")
-
-CURVED_SHAPES: frozenset[str] = frozenset({"circle", "ellipse", "semicircle", "moon"})
+#: The outlines with curved sides, as :func:`shapes.is_curved` defines them.
+CURVED_SHAPES: frozenset[str] = frozenset(s for s in SHAPE_NAMES if is_curved(s))
 
 
 @dataclass(frozen=True)
@@ -105,18 +117,6 @@ def cross_shape_splits(data: Dataset) -> list[Split]:
 def cross_material_splits(data: Dataset) -> list[Split]:
     """All 3 leave-one-material-in splits, in :data:`synth.MATERIAL_NAMES` order."""
     return [cross_material_split(data, m) for m in MATERIAL_NAMES]
-
-
-def condition_name(force_n: float, speed_mm_s: float) -> str:
-    """The results.json name of a perturbation force/speed combination,
-    e.g. ``"force=1.4N,speed=6mm/s"``."""
-    return f"force={force_n:g}N,speed={speed_mm_s:g}mm/s"
-
-
-def parse_condition(condition: str | None) -> tuple[float, float] | None:
-    """``"force=1.4N,speed=6mm/s"`` -> ``(1.4, 6.0)``; ``None`` for other names."""
-    m = _CONDITION.fullmatch(condition or "")
-    return (float(m.group(1)), float(m.group(2))) if m else None
 
 
 def _check_folds() -> None:

@@ -1,50 +1,71 @@
-"""Markdown tables of results laid out like the paper's Table I."""
+"""Markdown tables of results, the closed-set one laid out like the paper's Table I."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 
 from .paper_reference import TABLE_ONE_COLUMNS
+from .results import select
+
+
+def markdown_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
+    """A Markdown table as lines: header, separator, one line per row."""
+    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    out += ["| " + " | ".join(row) + " |" for row in rows]
+    return out
+
+
+def pct(record: dict | None) -> str:
+    """``"87.20 ± 2.91"``: an accuracy record's mean and 95 % CI in %; ``-`` for None."""
+    if record is None:
+        return "-"
+    return f"{100 * record['accuracy']:.2f} ± {100 * record['ci95']:.2f}"
+
+
+def ms(value: float | None) -> str:
+    return "-" if value is None else f"{value:.2f}"
+
+
+def episodes_note(records: Sequence[dict]) -> str:
+    """The records' episode counts, ``"100"`` or ``"100/500"``; ``-`` when none."""
+    eps = sorted({r["episodes"] for r in records})
+    return "/".join(str(e) for e in eps) if eps else "-"
+
+
+def table_one_lines(records: Sequence[dict], *, timing: bool = True) -> list[str]:
+    """The closed-set table (records with ``condition=None``): accuracy (%, mean ± 95 % CI)
+    per method and K-shot N-way column (Table I's columns first, then any others), then
+    with ``timing`` the pretrain time (s) and, as Table I's "Adapt/episode", the
+    single-episode latency of a 5-way-5-shot episode (ms, one episode at a time, features
+    precomputed) and the same including the feature extraction, and last the episodes.
+    The batched throughput is not shown: it is a different measure (see the report's
+    timing section). No lines when there are no closed-set records."""
+    rs = select(records, "accuracy", protocol="closed-set", condition=None)
+    if not rs:
+        return []
+    present = {(r["shot"], r["way"]) for r in rs}
+    cols = [c for c in TABLE_ONE_COLUMNS if c in present]
+    cols += sorted(present - set(cols))
+    header = ["method", *[f"{k}-shot {n}-way" for k, n in cols]]
+    if timing:
+        header += ["pretrain (s)", "latency/episode 5w5s (ms)", "latency incl. features (ms)"]
+    header.append("episodes")
+    rows = []
+    for m in dict.fromkeys(r["method"] for r in rs):
+        mine = [r for r in rs if r["method"] == m]
+        cell = {(r["shot"], r["way"]): r for r in reversed(mine)}  # the first record wins
+        row = [m, *[pct(cell.get(c)) for c in cols]]
+        if timing:
+            five = cell.get((5, 5))
+            row += [
+                f"{mine[0]['pretrain_s']:.2f}",
+                ms(None if five is None else five.get("latency_ms_per_episode")),
+                ms(None if five is None else five.get("latency_with_features_ms_per_episode")),
+            ]
+        rows.append([*row, episodes_note(mine)])
+    return markdown_table(header, rows)
 
 
 def table_one(records: Sequence[dict]) -> str:
-    """Closed-set accuracy (%, mean ± 95% CI) per method and (shot, way) column, then the
-    pretrain time (s) and, as Table I's "Adapt/episode", the single-episode latency of a
-    5-way-5-shot episode (ms, one episode at a time, features precomputed), and the same
-    including the feature extraction. The batched throughput is not shown here: it is a
-    different measure (see the report's timing section)."""
-    rs = [
-        r
-        for r in records
-        if r.get("record") == "accuracy"
-        and r.get("protocol") == "closed-set"
-        and r.get("condition") is None
-    ]
-    methods = list(dict.fromkeys(r["method"] for r in rs))
-    cols = [c for c in TABLE_ONE_COLUMNS if any((r["shot"], r["way"]) == c for r in rs)]
-    header = [
-        "method",
-        *[f"{k}-shot {n}-way" for k, n in cols],
-        "pretrain (s)",
-        "latency/episode 5w5s (ms)",
-        "latency incl. features (ms)",
-        "episodes",
-    ]
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    for m in methods:
-        mine = [r for r in rs if r["method"] == m]
-        cells = []
-        for k, n in cols:
-            r = next((x for x in mine if (x["shot"], x["way"]) == (k, n)), None)
-            cells.append("-" if r is None else f"{100 * r['accuracy']:.2f} ± {100 * r['ci95']:.2f}")
-        five = next((x for x in mine if (x["shot"], x["way"]) == (5, 5)), None)
-        pretrain = f"{mine[0]['pretrain_s']:.2f}" if mine else "-"
-        lat = _ms(None if five is None else five.get("latency_ms_per_episode"))
-        lat_f = _ms(None if five is None else five.get("latency_with_features_ms_per_episode"))
-        episodes = "/".join(str(e) for e in sorted({x["episodes"] for x in mine}))
-        lines.append("| " + " | ".join([m, *cells, pretrain, lat, lat_f, episodes]) + " |")
-    return "\n".join(lines) + "\n"
-
-
-def _ms(value: float | None) -> str:
-    return "-" if value is None else f"{value:.2f}"
+    """``table1.md``: :func:`table_one_lines` with the timing columns, as text."""
+    return "\n".join(table_one_lines(records)) + "\n"

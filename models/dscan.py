@@ -15,6 +15,7 @@ import numpy as np
 
 from .episodes import sample_episodes
 from .prototypes import nearest_prototype
+from .stats import ci95
 
 #: Candidate D: every size up to 24, then coarser up to the whole pool.
 DEFAULT_CANDIDATES: tuple[int, ...] = (
@@ -84,7 +85,7 @@ def dscan(
         pred = nearest_prototype(cols, batch.support, batch.query)
         acc = (pred == truth).mean(axis=1)
         means.append(acc.mean())
-        cis.append(1.96 * acc.std() / np.sqrt(acc.size))
+        cis.append(ci95(acc))
     mean = np.asarray(means)
     best = int(ds[int(np.argmax(mean))])  # argmax: the first (smallest) D on ties
     return DScan(D=ds, mean=mean, ci95=np.asarray(cis), best=best)

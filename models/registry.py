@@ -1,9 +1,30 @@
-"""Methods by name. Modules are imported on first use so that importing ``models`` stays
-cheap (torch is only loaded by the methods that need it)."""
+"""Methods by name: the paper's seven, methods other packages install, and any
+``FewShotMethod`` subclass named as ``module:Class``.
+
+A method is named in one of three ways (``docs/methods.md``):
+
+- a built-in name, :data:`METHOD_NAMES` (AFOP-ML and the six baselines);
+- the name of an entry point in the group :data:`ENTRY_POINT_GROUP` that an installed
+  distribution declares (``[project.entry-points."tactile_synth.methods"]`` in its
+  ``pyproject.toml``, value ``"module:Class"``); a built-in name always wins;
+- ``"module:Class"`` (an importable module, looked up from the current directory too)
+  or ``"path/to/file.py:Class"``.
+
+Results carry the name exactly as given. Modules are imported on first use so that
+importing ``models`` stays cheap (torch is only loaded by the methods that need it).
+"""
 
 from __future__ import annotations
 
 import importlib
+import importlib.metadata
+import importlib.util
+import inspect
+import os
+import sys
+import zlib
+from collections.abc import Sequence
+from pathlib import Path
 
 from shapes.validation import check_choice
 
@@ -21,15 +42,128 @@ _METHODS: dict[str, str] = {
 }
 
 METHOD_NAMES: tuple[str, ...] = tuple(_METHODS)
+#: Entry-point group through which installed distributions contribute methods.
+ENTRY_POINT_GROUP = "tactile_synth.methods"
 
 
-def method_class(name: str) -> type[FewShotMethod]:
-    """The class registered under ``name`` (one of :data:`METHOD_NAMES`)."""
-    check_choice("method", name, METHOD_NAMES)
-    module, cls = _METHODS[name].split(":")
-    return getattr(importlib.import_module(module), cls)
+def plugin_methods() -> dict[str, str]:
+    """Entry-point name -> ``"module:Class"`` of every installed plug-in method (names of
+    built-in methods are left out: the built-in wins)."""
+    eps = importlib.metadata.entry_points(group=ENTRY_POINT_GROUP)
+    return {ep.name: ep.value for ep in eps if ep.name not in _METHODS}
+
+
+def available_methods() -> tuple[str, ...]:
+    """Built-in names, then installed plug-in names (sorted)."""
+    return (*METHOD_NAMES, *sorted(plugin_methods()))
+
+
+def _import_module(spec: str, module: str, arg: str):
+    """The module of a ``module:Class`` spec: a ``.py`` file path, or a module importable
+    from ``sys.path`` or else from the current directory (as ``python -m`` would find it)."""
+    if module.endswith(".py"):
+        return _import_file(spec, Path(module), arg)
+    mod = _try_import(spec, module, arg)
+    if mod is None and os.getcwd() not in sys.path:
+        sys.path.append(os.getcwd())  # searched last: installed modules win
+        mod = _try_import(spec, module, arg)
+    if mod is None:
+        raise ValueError(f"{arg}: {spec!r}: no module named {module!r}")
+    return mod
+
+
+def _try_import(spec: str, module: str, arg: str):
+    """The imported module, or None if it does not exist (a failure inside it raises)."""
+    try:
+        return importlib.import_module(module)
+    except ModuleNotFoundError as exc:
+        if exc.name is not None and (module == exc.name or module.startswith(exc.name + ".")):
+            return None
+        raise ValueError(f"{arg}: {spec!r}: importing {module} failed: {exc}") from exc
+    except ImportError as exc:
+        raise ValueError(f"{arg}: {spec!r}: importing {module} failed: {exc}") from exc
+
+
+def _import_file(spec: str, path: Path, arg: str):
+    if not path.is_file():
+        raise ValueError(f"{arg}: {spec!r}: file {path} does not exist")
+    resolved = str(path.resolve())
+    name = f"_tactile_synth_method_{path.stem}_{zlib.crc32(resolved.encode()):08x}"
+    if name in sys.modules:
+        return sys.modules[name]
+    loader_spec = importlib.util.spec_from_file_location(name, resolved)
+    if loader_spec is None or loader_spec.loader is None:
+        raise ValueError(f"{arg}: {spec!r}: cannot load {path} as a Python module")
+    mod = importlib.util.module_from_spec(loader_spec)
+    sys.modules[name] = mod  # before executing: dataclasses and typing look it up
+    try:
+        loader_spec.loader.exec_module(mod)
+    except ImportError as exc:
+        del sys.modules[name]
+        raise ValueError(f"{arg}: {spec!r}: importing {path} failed: {exc}") from exc
+    except BaseException:
+        del sys.modules[name]
+        raise
+    return mod
+
+
+def _load(spec: str, arg: str) -> type[FewShotMethod]:
+    """The class behind ``"module:Class"``, checked to be a usable FewShotMethod."""
+    module, sep, attr = spec.rpartition(":")
+    if not sep or not module or not attr or not attr.replace(".", "_").isidentifier():
+        raise ValueError(
+            f"{arg}: {spec!r} is not module:Class (e.g. examples.nearest_mean:NearestClassMean)"
+        )
+    obj: object = _import_module(spec, module, arg)
+    for part in attr.split("."):
+        if not hasattr(obj, part):
+            raise ValueError(f"{arg}: {spec!r}: {module} has no attribute {attr!r}")
+        obj = getattr(obj, part)
+    if not (inspect.isclass(obj) and issubclass(obj, FewShotMethod)):
+        raise ValueError(
+            f"{arg}: {spec!r} is not a FewShotMethod subclass (see docs/methods.md); got {obj!r}"
+        )
+    if inspect.isabstract(obj):
+        missing = ", ".join(sorted(obj.__abstractmethods__))
+        raise ValueError(f"{arg}: {spec!r} does not implement {missing}")
+    if not isinstance(getattr(obj, "name", None), str):
+        raise ValueError(f"{arg}: {spec!r} must set the class attribute name (a string)")
+    return obj
+
+
+def method_class(name: str, *, arg: str = "method") -> type[FewShotMethod]:
+    """The class of method ``name`` (a built-in name, a plug-in name or ``module:Class``);
+    ``ValueError`` naming ``arg`` when it cannot be found or is no FewShotMethod."""
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"{arg} must be a method name or module:Class; got {name!r}")
+    if name in _METHODS:
+        module, cls = _METHODS[name].split(":")
+        return getattr(importlib.import_module(module), cls)
+    plugins = plugin_methods()
+    if name in plugins:
+        return _load(plugins[name], f"{arg} {name!r} (entry point {plugins[name]!r})")
+    if ":" in name:
+        return _load(name, arg)
+    check_choice(arg, name, (*_METHODS, *sorted(plugins)))  # raises, with a close match
+    raise AssertionError("unreachable")
+
+
+def check_methods(methods: Sequence[str], *, arg: str = "methods") -> tuple[str, ...]:
+    """Validate method names (each resolved to its class, so a bad plug-in fails here and
+    not mid-run); keep order, drop repeats."""
+    if isinstance(methods, str) or not methods:
+        raise ValueError(
+            f"{arg} must be a non-empty list of method names ({', '.join(available_methods())}) "
+            "or module:Class"
+        )
+    for m in methods:
+        method_class(m, arg=arg)
+    return tuple(dict.fromkeys(methods))
 
 
 def make_method(name: str, *, seed: int = 0, **params: object) -> FewShotMethod:
-    """A new, unfitted instance of the method ``name``."""
-    return method_class(name)(seed=seed, **params)
+    """A new, unfitted instance of the method ``name`` (see :func:`method_class`)."""
+    method = method_class(name)(seed=seed, **params)
+    if not isinstance(method, FewShotMethod):  # a __new__ returning something else
+        raise ValueError(f"method {name!r} did not construct a FewShotMethod")
+    return method

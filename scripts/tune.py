@@ -297,7 +297,7 @@ def tune(
     )
     st["candidates"] = [round(float(v * n), 6) for v in cv.lambdas]
     st["score"] = [float(v) for v in cv.mean_loss]
-    st["ci95"] = [float(1.96 * v.std() / np.sqrt(v.size)) for v in cv.fold_loss]
+    st["ci95"] = [ci95(v) for v in cv.fold_loss]
     st["columns"] = [[float(x) for x in row] for row in cv.fold_loss]
     st["seconds"] = round(time.perf_counter() - t0, 1)
     lam_n = apply_rule(st)

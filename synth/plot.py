@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -20,13 +21,8 @@ def example_rows(label: np.ndarray, condition: np.ndarray, finished: np.ndarray)
 
 
 def plot_examples(path: str | Path, out: str | Path) -> Path:
-    """Draw one trial per class (rows: shapes, columns: materials); each channel is
-    standardised over the plotted trials and drawn at its own offset. Returns ``out``."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    """Draw one trial per class of the store at ``path`` (rows: shapes, columns:
+    materials), as :func:`plot_example_grid`. Returns ``out``."""
     st = store.Store.open(path)
     meta = st.meta
     done, problems = st.status()
@@ -43,42 +39,79 @@ def plot_examples(path: str | Path, out: str | Path) -> Path:
     chunks, problems = st.read_chunks(sorted({i // c for i in rows.values()}))
     if problems:
         raise store.DatasetDamaged(st.path, problems)
-    examples = {cls: chunks[i // c][i % c] for cls, i in rows.items()}  # (4, T) each
-    stack = np.stack(list(examples.values()))
+    classes = meta["classes"]
+    examples = {classes[cls]: chunks[i // c][i % c] for cls, i in rows.items()}  # (4, T) each
+    titles = {
+        classes[cls]: f"{meta['conditions'][int(st.plan.condition[i])]}, row {i}"
+        for cls, i in rows.items()
+    }
+    return plot_example_grid(
+        examples,
+        out,
+        shapes=st.shapes,
+        materials=st.materials,
+        channels=meta["channels"],
+        sample_rate_hz=float(meta["sample_rate_hz"]),
+        notes=titles,
+        title=f"{Path(path).name}: one trial per class",
+    )
+
+
+def plot_example_grid(
+    examples: Mapping[str, np.ndarray],
+    out: str | Path,
+    *,
+    shapes: Sequence[str],
+    materials: Sequence[str],
+    channels: Sequence[str],
+    sample_rate_hz: float,
+    notes: Mapping[str, str] | None = None,
+    title: str = "one trial per class",
+) -> Path:
+    """One example trial per class in a grid (rows: ``shapes``, columns: ``materials``).
+
+    examples: ``"<shape>/<material>"`` -> ``(channels, T)`` signals (classes absent are
+    left empty); each channel is standardised over all the plotted trials and drawn at
+    its own offset, so amplitudes compare across classes. ``notes`` adds a class's panel
+    title after its name (e.g. its condition and store row). Writes ``out`` (PNG).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    if not examples:
+        raise ValueError("examples must hold at least one class's trial")
+    notes = notes or {}
+    stack = np.stack([np.asarray(x, dtype=np.float64) for x in examples.values()])
     mean = stack.mean(axis=(0, 2))[:, None]
     std = stack.std(axis=(0, 2))[:, None] + 1e-12
-    classes, channels = meta["classes"], meta["channels"]
-    shapes_, materials = st.shapes, st.materials
-    t = np.arange(stack.shape[2]) / float(meta["sample_rate_hz"])
+    t = np.arange(stack.shape[2]) / sample_rate_hz
     fig, axes = plt.subplots(
-        len(shapes_),
+        len(shapes),
         len(materials),
-        figsize=(3.4 * len(materials) + 1, 1.6 * len(shapes_) + 1),
+        figsize=(3.4 * len(materials) + 1, 1.6 * len(shapes) + 1),
         sharex=True,
         squeeze=False,
     )
     colors = ("tab:blue", "tab:orange", "tab:green", "tab:red")
     offsets = -4.0 * np.arange(len(channels))
-    for r, shape in enumerate(shapes_):
+    for r, shape in enumerate(shapes):
         for col, material in enumerate(materials):
             ax = axes[r, col]
-            cls = classes.index(f"{shape}/{material}")
-            if cls in examples:
-                z = (examples[cls] - mean) / std
+            name = f"{shape}/{material}"
+            if name in examples:
+                z = (np.asarray(examples[name], dtype=np.float64) - mean) / std
                 for j in range(len(channels)):
                     ax.plot(t, z[j] + offsets[j], lw=0.6, color=colors[j % len(colors)])
-                i = rows[cls]
-                cond = meta["conditions"][int(st.plan.condition[i])]
-                ax.set_title(f"{shape}/{material}  ({cond}, row {i})", fontsize=7)
+                note = f"  ({notes[name]})" if name in notes else ""
+                ax.set_title(f"{name}{note}", fontsize=7)
             ax.set_ylim(offsets[-1] - 3.0, offsets[0] + 3.0)
             ax.set_yticks(offsets, channels if col == 0 else [""] * len(channels), fontsize=7)
             ax.tick_params(axis="x", labelsize=7)
     for ax in axes[-1]:
         ax.set_xlabel("time in window (s)", fontsize=8)
-    fig.suptitle(
-        f"{Path(path).name}: one trial per class (channels standardised over the plotted trials)",
-        fontsize=10,
-    )
+    fig.suptitle(f"{title} (channels standardised over the plotted trials)", fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.98))
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import re
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -71,9 +72,19 @@ def _numbers(arg: str, values: object, unit: str, bounds: tuple[float, float]) -
     return out
 
 
+_CONDITION = re.compile(r"force=([0-9.eE+-]+)N,speed=([0-9.eE+-]+)mm/s")
+
+
 def condition_name(force_n: float, speed_mm_s: float) -> str:
-    """``"force=1.4N,speed=6mm/s"`` (the results.json condition naming)."""
+    """The name of a force/speed condition in a store and in results.json,
+    e.g. ``"force=1.4N,speed=6mm/s"``."""
     return f"force={force_n:g}N,speed={speed_mm_s:g}mm/s"
+
+
+def parse_condition(condition: str | None) -> tuple[float, float] | None:
+    """``"force=1.4N,speed=6mm/s"`` -> ``(1.4, 6.0)``; ``None`` for other names."""
+    m = _CONDITION.fullmatch(condition or "")
+    return (float(m.group(1)), float(m.group(2))) if m else None
 
 
 @dataclass(frozen=True)

@@ -121,8 +121,9 @@ def build_spec(shape: str, finger: Finger, motion: Motion) -> mujoco.MjSpec:
     spec.modelname = f"tactile_{shape}"
     opt = spec.option
     opt.timestep = motion.timestep_s
-    # Stiff drives need the implicit-in-velocity integrator; the elliptic cone makes
-    # tangential/normal equal the friction coefficient (MUJOCO-NOTES).
+    # Stiff drives need the implicit-in-velocity integrator; with the elliptic friction
+    # cone a sliding contact's tangential/normal force ratio is the friction coefficient
+    # (MuJoCo's pyramidal default only approximates the cone by its edges).
     opt.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     opt.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
     opt.impratio = motion.impratio

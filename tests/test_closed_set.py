@@ -26,8 +26,8 @@ def _one_torch_thread():
 
 
 FIELDS = {
-    "record", "protocol", "fold", "condition", "method", "way", "shot", "query", "episodes",
-    "accuracy", "ci95", "pretrain_s", "adapt_ms_per_episode", "latency_ms_per_episode",
+    "record", "schema_version", "protocol", "fold", "condition", "method", "way", "shot", "query",
+    "episodes", "accuracy", "ci95", "pretrain_s", "adapt_ms_per_episode", "latency_ms_per_episode",
     "latency_with_features_ms_per_episode", "latency_episodes", "feature_dim",
 }  # fmt: skip
 
@@ -102,6 +102,6 @@ def test_cli_writes_results_report_and_table(tmp_path, capsys):
     assert table.splitlines()[0].startswith("| method | 1-shot 5-way")
     capsys.readouterr()
     assert main([*args, "--methods", "SVM"]) == 2
-    assert "method must be one of" in capsys.readouterr().err
+    assert "--methods must be one of" in capsys.readouterr().err
     assert main(["benchmark", "perturbation", "--data", str(path), "--out", str(out)]) == 2
     assert "--perturbed is required" in capsys.readouterr().err

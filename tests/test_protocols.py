@@ -17,6 +17,7 @@ from tests.synthetic_data import make_dataset
 
 ACCURACY_FIELDS = {
     "record",
+    "schema_version",
     "protocol",
     "fold",
     "condition",
@@ -34,7 +35,7 @@ ACCURACY_FIELDS = {
     "latency_episodes",
     "feature_dim",
 }
-SELECTION_FIELDS = {"record", "protocol", "fold", "D", "pvdf_share", "sg_share"}
+SELECTION_FIELDS = {"record", "schema_version", "protocol", "fold", "D", "pvdf_share", "sg_share"}
 
 
 class Spy(FewShotMethod):

@@ -196,3 +196,37 @@ def test_timing_section_keeps_latency_and_batched_throughput_apart():
 
     table = table_one(fake_records())
     assert "latency/episode 5w5s (ms)" in table and "| 1.00 | 40.00 | 55.00 | 50 |" in table
+
+
+def test_heatmap_and_report_show_every_method(tmp_path, monkeypatch):
+    base = [r for r in fake_records() if r.get("method") == "AFOP-ML"]
+    names = ["AFOP-ML", *[f"method-{i}" for i in range(5)]]
+    rs = [dict(r, method=m) for m in names for r in base]
+    drawn: list[str] = []
+
+    def save(fig, path):
+        drawn.extend(ax.get_title() for ax in fig.axes if ax.get_visible() and ax.get_title())
+        return figures.plt.close(fig)
+
+    monkeypatch.setattr(figures, "_save", save)
+    figures.perturbation_heatmap(rs, tmp_path / "heat.png", methods=names)
+    assert [t.split(":")[0] for t in drawn] == names
+    text = render(rs, META)
+    for m in names:
+        assert f"**{m}** (50 episodes per cell)" in text
+
+
+def test_run_draws_the_heatmap_of_every_method_that_ran(tmp_path, monkeypatch):
+    from benchmark import run as run_mod
+
+    names = ["AFOP-ML", *[f"method-{i}" for i in range(5)]]
+    rs = [dict(r, method=m) for m in names for r in fake_records() if r.get("method") == "AFOP-ML"]
+    asked: list[list[str]] = []
+    for name in ("generalisation_curves", "selection_bars", "tsne_scatter", "example_signals"):
+        monkeypatch.setattr(figures, name, lambda *a, **k: None)
+    monkeypatch.setattr(
+        figures, "perturbation_heatmap", lambda records, path, methods: asked.append(methods)
+    )
+    art = run_mod.Artefacts(None, 8, np.zeros((2, 2)), np.zeros(2), np.zeros(2), {}, 10)
+    made = run_mod.draw_figures(rs, make_dataset(trials_per_class=1, n_samples=50), art, tmp_path)
+    assert "perturbation_heatmap" in made and asked == [names]

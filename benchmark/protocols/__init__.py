@@ -1,8 +1,8 @@
 """The paper's evaluation protocols by name.
 
 Each protocol module exposes ``run(data, *, perturbed, methods, episodes, seed, progress)
--> list[dict]`` returning results.json records (see ARCHITECTURE.md). Modules are
-imported on first use.
+-> list[dict]`` returning results.json records (fields in ``docs/results.md``). Modules
+are imported on first use.
 """
 
 from __future__ import annotations

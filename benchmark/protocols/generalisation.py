@@ -20,9 +20,11 @@ from dataclasses import dataclass
 import numpy as np
 from tqdm.auto import tqdm
 
+from models import registry
 from models.base import FewShotMethod
-from models.registry import METHOD_NAMES, make_method
-from shapes.validation import check_choice, check_int
+from models.registry import make_method
+from models.stats import ci95
+from shapes.validation import check_int
 from synth import Dataset
 
 from ..episodes import sample_episodes
@@ -51,12 +53,9 @@ class Task:
 
 
 def check_methods(methods: Sequence[str]) -> tuple[str, ...]:
-    """Validate method names (unknown names raise with the valid list); keep order."""
-    if isinstance(methods, str) or not methods:
-        raise ValueError(f"methods must be a non-empty list of {', '.join(METHOD_NAMES)}")
-    for m in methods:
-        check_choice("method", m, METHOD_NAMES)
-    return tuple(dict.fromkeys(methods))
+    """Validate method names, plug-in names or ``module:Class`` specs (unknown names
+    raise with the valid list, see :func:`models.registry.check_methods`); keep order."""
+    return registry.check_methods(methods, arg="method")
 
 
 def episodes_for(method: str, episodes: int, method_episodes: Mapping[str, int] | None) -> int:
@@ -233,7 +232,7 @@ def pool_folds(pairs: Sequence[tuple[dict, np.ndarray]]) -> list[dict]:
             fold=None,
             episodes=int(acc.size),
             accuracy=float(acc.mean()),
-            ci95=float(1.96 * acc.std() / np.sqrt(acc.size)),
+            ci95=ci95(acc),
             query=int(min(r["query"] for r, _ in rs)),
             pretrain_s=float(np.mean([r["pretrain_s"] for r, _ in rs])),
             adapt_ms_per_episode=float(np.mean([r["adapt_ms_per_episode"] for r, _ in rs])),
