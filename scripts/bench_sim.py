@@ -44,9 +44,7 @@ def main() -> None:
 
     n = len(specs)
     steps = sum(simulator.plan(s, config).steps for s in specs)
-    print(
-        f"{n} trials, {steps / n:.0f} steps each on average, {args.threads} rollout thread(s)"
-    )
+    print(f"{n} trials, {steps / n:.0f} steps each on average, {args.threads} rollout thread(s)")
     print(
         f"raw rollout:    {raw_wall:6.2f} s wall  {steps / raw_wall:9.0f} steps/s  "
         f"{raw_cpu / n * 1e3:5.1f} ms CPU per trial"
