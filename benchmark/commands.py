@@ -123,6 +123,17 @@ def _register_run(subparsers: argparse._SubParsersAction) -> None:
         help="replace the contents of a non-empty DIR that tactile-synth did not write "
         "(DIR/data and DIR/checkpoints are kept)",
     )
+    p.add_argument(
+        "--data",
+        metavar="PATH",
+        help="use this dataset store (generated or imported) as the nominal dataset "
+        "instead of generating the paper preset",
+    )
+    p.add_argument(
+        "--perturbed",
+        metavar="PATH",
+        help="use this dataset store as the perturbation dataset instead of generating it",
+    )
     p.add_argument("--threads", type=int, metavar="N", help=THREADS_HELP)
     p.set_defaults(handler=_run)
 
@@ -143,6 +154,8 @@ def _run(args: argparse.Namespace) -> int:
             workers=args.workers,
             progress=True,
             overwrite=args.overwrite,
+            data=args.data,
+            perturbed=args.perturbed,
         )
     except KeyboardInterrupt:
         again = shlex.join(getattr(args, "argv", None) or ["run", "--out", str(args.out)])

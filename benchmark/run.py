@@ -498,11 +498,17 @@ def run(
     methods: Sequence[str] | None = None,
     simulator: Any = None,
     overwrite: bool = False,
+    data: str | Path | None = None,
+    perturbed: str | Path | None = None,
 ) -> list[dict]:
     """Generate the nominal and perturbation datasets into ``out/data`` (reusing or
     completing any already there) and run :func:`benchmark_all` into ``out`` with the
     plan's methods, or ``methods`` (names, plug-in names or ``module:Class``; must include
     AFOP-ML).
+
+    ``data`` / ``perturbed``: existing dataset stores (generated or imported with
+    ``tactile-synth import``) used instead of generating the nominal / perturbation
+    dataset; the one not given is generated as usual.
 
     ``out`` is refused if it holds files this tool did not write, unless ``overwrite``;
     its output set is replaced at once at the end, its datasets and checkpoints kept
@@ -521,9 +527,17 @@ def run(
     plan = run_plan(quick, seed=seed, methods=methods)
     if "AFOP-ML" not in plan.methods:
         raise ValueError("methods must include AFOP-ML (the report and Fig. 6/7 are about it)")
+    given = {"nominal": data, "perturbation": perturbed}
+    for path, arg in zip(given.values(), ("data", "perturbed"), strict=True):
+        if path is not None and not Path(path).is_dir():
+            raise FileNotFoundError(f"--{arg} {path} is not a dataset directory")
     with OutputDir(out, overwrite=overwrite, command="run") as target:
         paths = {}
         for name, config in (("nominal", plan.nominal), ("perturbation", plan.perturbation)):
+            if given[name] is not None:
+                _log(progress, f"{name} dataset: {given[name]} (given, not generated)")
+                paths[name] = Path(given[name])
+                continue
             path = out / "data" / name
             _log(progress, f"generating the {name} dataset into {path} (resumable)")
             t0 = time.perf_counter()

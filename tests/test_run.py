@@ -128,6 +128,21 @@ def test_run_quick_with_fake_simulator_is_resumable(tmp_path, monkeypatch):
     again = run(tmp_path, quick=True, progress=False, workers=1, simulator=sim)
     assert sim.trials == n_sim  # datasets reused, nothing re-simulated
     assert comparable(again) == comparable(first)
+    # run --data / --perturbed: existing stores are used as they are, nothing generated.
+    given = run(
+        tmp_path / "given",
+        quick=True,
+        progress=False,
+        workers=1,
+        simulator=sim,
+        data=tmp_path / "data" / "nominal",
+        perturbed=tmp_path / "data" / "perturbation",
+    )
+    assert sim.trials == n_sim
+    assert not (tmp_path / "given" / "data").exists()
+    assert comparable(given) == comparable(first)
+    with pytest.raises(FileNotFoundError, match="--data"):
+        run(tmp_path / "bad", quick=True, progress=False, data=tmp_path / "missing")
 
 
 @pytest.mark.slow
