@@ -32,7 +32,7 @@ def tiny(**changes) -> GenerationConfig:
     base = dict(
         shapes=("square", "triangle"),
         materials=("wood",),
-        trials_per_class=5,  # 10 chunks: an interruption reliably lands mid-run
+        trials_per_class=5,
         forces_n=(1.0, 1.4),
         chunk_trials=2,
     )
@@ -106,12 +106,26 @@ def test_cli_from_config_reproduces_bit_for_bit(reference, tmp_path, capsys):
     assert "complete   yes: 10/10 chunks, 20/20 trials" in text
 
 
+#: Trials per class of the interrupted runs: 30 chunks of 2 trials, so that an interruption
+#: sent once the first chunk is done lands mid-run even when the test's polling process
+#: waits behind a busy machine's other jobs.
+LONG_TRIALS = 15
+
+
+@pytest.fixture(scope="module")
+def long_reference(tmp_path_factory) -> Path:
+    """The interrupted runs' grid generated in this process, uninterrupted."""
+    out = tmp_path_factory.mktemp("long") / "ds"
+    synth.generate(tiny(trials_per_class=LONG_TRIALS), out, workers=1, progress=False)
+    return out
+
+
 def _start(out: Path) -> subprocess.Popen:
     cmd = [
         sys.executable, "-m", "benchmark.cli", "generate", "--out", str(out),
         "--shapes", "square", "triangle", "--materials", "wood",
-        "--trials-per-class", "5", "--force", "1.0", "1.4", "--chunk-trials", "2",
-        "--workers", "1",
+        "--trials-per-class", str(LONG_TRIALS), "--force", "1.0", "1.4",
+        "--chunk-trials", "2", "--workers", "1",
     ]  # fmt: skip
     return subprocess.Popen(cmd, cwd=ROOT, stderr=subprocess.PIPE, text=True)
 
@@ -128,7 +142,7 @@ def _wait_for_done_chunks(out: Path, proc: subprocess.Popen, at_least: int) -> N
 
 
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT], ids=["SIGKILL", "SIGINT"])
-def test_cli_interrupted_then_resumed(reference, tmp_path, sig):
+def test_cli_interrupted_then_resumed(long_reference, tmp_path, sig):
     out = tmp_path / "ds"
     proc = _start(out)
     try:
@@ -146,8 +160,8 @@ def test_cli_interrupted_then_resumed(reference, tmp_path, sig):
     with pytest.raises(ValueError, match="incomplete"):
         load_dataset(out)
     assert cli(["generate", "--resume", "--out", str(out)]) == 0
-    assert chunk_bytes(out) == chunk_bytes(reference)
-    np.testing.assert_array_equal(load_dataset(out).signals, load_dataset(reference).signals)
+    assert chunk_bytes(out) == chunk_bytes(long_reference)
+    np.testing.assert_array_equal(load_dataset(out).signals, load_dataset(long_reference).signals)
 
 
 def test_repair_resimulates_a_damaged_chunk_to_the_original_bytes(reference, tmp_path, capsys):
