@@ -127,7 +127,16 @@ def _start(out: Path) -> subprocess.Popen:
         "--trials-per-class", str(LONG_TRIALS), "--force", "1.0", "1.4",
         "--chunk-trials", "2", "--workers", "1",
     ]  # fmt: skip
-    return subprocess.Popen(cmd, cwd=ROOT, stderr=subprocess.PIPE, text=True)
+    # A job started in the background of a non-interactive shell (e.g. a CI script's
+    # `cmd &`) inherits SIGINT as ignored; Ctrl-C must reach the generator as it does
+    # from a terminal.
+    return subprocess.Popen(
+        cmd,
+        cwd=ROOT,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
 
 
 def _wait_for_done_chunks(out: Path, proc: subprocess.Popen, at_least: int) -> None:
