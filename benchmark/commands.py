@@ -93,7 +93,7 @@ def _benchmark(args: argparse.Namespace) -> int:
 
 
 def _register_run(subparsers: argparse._SubParsersAction) -> None:
-    """``tactile-synth run``: the whole study from nothing (owner: protocols/report)."""
+    """``tactile-synth run``: the whole study from nothing."""
     p = subparsers.add_parser(
         "run",
         help="generate the datasets and run the whole benchmark (the main job)",

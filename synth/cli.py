@@ -11,6 +11,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
     dataset_cli.register(subparsers)
 
-    from . import sim_cli  # plot-trial / view (owner: simulator)
+    from . import sim_cli  # plot-trial / view
 
     sim_cli.register(subparsers)

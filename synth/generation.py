@@ -182,20 +182,13 @@ def available_memory() -> int:
     return int(os.sysconf("SC_PHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
 
 
-def _existing_parent(path: Path) -> Path:
-    p = Path(os.path.abspath(path))
-    while not p.exists():
-        p = p.parent
-    return p if p.is_dir() else p.parent
-
-
 def check_resources(config: GenerationConfig, out: Path, *, workers: int, local: bool) -> None:
     """Refuse a run the machine cannot hold, before anything starts, naming the argument and
     the estimate: the store against the free disk space at ``out``, the plan and the
     chunks in flight against the available memory."""
     n = config.n_trials
     disk = n * store.TRIAL_BYTES * _DISK_FRACTION
-    where = _existing_parent(out)
+    where = store.existing_parent(out)
     free = shutil.disk_usage(where).free
     grid = (
         f"{n:,} trials ({len(config.class_indices)} classes x {len(config.conditions)} "
@@ -267,13 +260,6 @@ def _has_meta(path: Path) -> bool:
     except (OSError, ValueError):
         return False
     return True
-
-
-def _complete(path: Path) -> bool:
-    try:
-        return bool(store.Store.open(path).status()[0].all())
-    except (OSError, ValueError):
-        return False
 
 
 @dataclasses.dataclass
@@ -362,7 +348,7 @@ def prepare(
     if out.exists() and not out.is_dir():
         raise FileExistsError(f"--out {out} is a file; choose a directory path for the dataset")
     pending = store.pending_path(out)
-    atomic.recover(out, complete=_complete(pending))
+    atomic.recover(out, complete=store.is_complete(pending))
     occupied = out.exists() and any(out.iterdir())
     if resume and _has_meta(pending):
         return _resume_job(config, out, pending, repair=repair)

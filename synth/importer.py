@@ -764,13 +764,6 @@ def _unlisted(recordings: Path, rows: Sequence[LabelRow], labels: Path) -> list[
     )
 
 
-def _complete(path: Path) -> bool:
-    try:
-        return bool(store.Store.open(path).status()[0].all())
-    except (OSError, ValueError):
-        return False
-
-
 @dataclasses.dataclass
 class ImportSummary:
     """What :func:`import_recordings` wrote: ``path``, trial and class counts, the
@@ -833,7 +826,7 @@ def import_recordings(
     try:
         with store.locked(out):
             pending = store.pending_path(out)
-            atomic.recover(out, complete=_complete(pending))
+            atomic.recover(out, complete=store.is_complete(pending))
             occupied = out.exists() and any(out.iterdir())
             if occupied and not overwrite:
                 raise FileExistsError(
@@ -905,9 +898,7 @@ def _resampling_note(resampled: dict[float, int], n: int) -> str:
 def _check_disk(out: Path, n: int) -> None:
     """Refuse an import whose store (at most its raw float32 size) cannot fit."""
     need = n * store.TRIAL_BYTES
-    where = Path(os.path.abspath(out))
-    while not where.exists():
-        where = where.parent
+    where = store.existing_parent(out)
     free = shutil.disk_usage(where).free
     if need > free:
         raise ValueError(

@@ -213,6 +213,23 @@ def is_store(path: Path) -> bool:
     return (Path(path) / "zarr.json").is_file()
 
 
+def is_complete(path: str | Path) -> bool:
+    """``path`` is a readable store whose every chunk is finished."""
+    try:
+        return bool(Store.open(path).status()[0].all())
+    except (OSError, ValueError):
+        return False
+
+
+def existing_parent(path: str | Path) -> Path:
+    """The nearest existing directory at or above ``path`` (where a new file there would
+    live: its free disk space is what a write to ``path`` can use)."""
+    p = Path(os.path.abspath(path))
+    while not p.exists():
+        p = p.parent
+    return p if p.is_dir() else p.parent
+
+
 def pending_path(path: str | Path) -> Path:
     """Where a replacement of ``path`` is built (``--overwrite``) before it is renamed into
     place: a hidden sibling, ``.<name>.tactile-synth-new``."""
