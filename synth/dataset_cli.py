@@ -48,7 +48,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "sharing the CPUs)",
     )
     p.add_argument("--threads", type=int, metavar="N", help=THREADS_HELP)
-    p.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler, e.g. tcp://host:8786")
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="Dask scheduler, e.g. tcp://host:8786; each task sizes its worker's thread pools "
+        "to --threads (default 1); start workers with OMP_WAIT_POLICY=PASSIVE "
+        "OPENBLAS_THREAD_TIMEOUT=4 in their environment so idle threads sleep",
+    )
     mode = p.add_mutually_exclusive_group()
     mode.add_argument(
         "--resume",

@@ -252,11 +252,22 @@ def _export(s: ThreadSettings) -> None:
 def _apply_loaded(s: ThreadSettings) -> ThreadSettings:
     """Set the pools of the libraries already loaded; returns the settings as applied."""
     if any(m in sys.modules for m in ("numpy", "scipy", "sklearn", "torch")):
-        from threadpoolctl import ThreadpoolController
+        import threadpoolctl
 
-        controller = ThreadpoolController()
+        # threadpoolctl (>= 3.8) lets only one Python thread, the first to set it, size a
+        # pthreads OpenBLAS (its pool is process-wide) and silently ignores the others. A
+        # cluster worker imports this module, and so sets the pool, in its main thread,
+        # then runs tasks in a thread of its own: the task's share would be ignored. The
+        # budget is this process's, whichever thread sets it, so control is taken for the
+        # call and released after it.
+        release = getattr(threadpoolctl.OpenBLASController, "clear_controlling_thread", None)
+        if release is not None:
+            release(force=True)
+        controller = threadpoolctl.ThreadpoolController()
         controller.limit(limits=s.blas, user_api="blas")
         controller.limit(limits=s.openmp, user_api="openmp")
+        if release is not None:
+            release()
     torch = sys.modules.get("torch")
     if torch is not None and hasattr(torch, "set_num_threads"):
         torch.set_num_threads(s.torch_intra_op)
