@@ -429,35 +429,26 @@ def generate(
     local = executor is None
     check_parallelism(workers, threads, local=local)
     atomic.check_dir_path(out)
-    made = [p for p in Path(os.path.abspath(out)).parents if not p.exists()]  # deepest first
-    try:
-        with store.locked(out):
-            job = prepare(
-                config,
-                out,
-                resume=resume,
-                overwrite=overwrite,
-                repair=repair,
-                workers=workers,
-                local=local,
-                mujoco_plans=simulator is None,
-            )
-            if job.todo:
-                store.remove_partial_files(job.target)
-            if job.clear:
-                store.clear_chunks(job.target, job.clear)
-            if job.rewrite:
-                store.rewrite_plan(job.target, job.rewrite)
-            _run(job, workers, threads, executor, progress, simulator)
-            if job.replacing:
-                atomic.replace_dir(job.target, out)
-    except BaseException:
-        for p in made:  # directories made only for the lock file go again
-            try:
-                p.rmdir()
-            except OSError:
-                break
-        raise
+    with store.locked(out):
+        job = prepare(
+            config,
+            out,
+            resume=resume,
+            overwrite=overwrite,
+            repair=repair,
+            workers=workers,
+            local=local,
+            mujoco_plans=simulator is None,
+        )
+        if job.todo:
+            store.remove_partial_files(job.target)
+        if job.clear:
+            store.clear_chunks(job.target, job.clear)
+        if job.rewrite:
+            store.rewrite_plan(job.target, job.rewrite)
+        _run(job, workers, threads, executor, progress, simulator)
+        if job.replacing:
+            atomic.replace_dir(job.target, out)
     return out
 
 

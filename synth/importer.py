@@ -822,47 +822,38 @@ def import_recordings(
                 f"another --out"
             )
     rows = read_labels(labels, recordings)  # every label checked before any lock or write
-    made = [p for p in Path(os.path.abspath(out)).parents if not p.exists()]  # deepest first
-    try:
-        with store.locked(out):
-            pending = store.pending_path(out)
-            atomic.recover(out, complete=store.is_complete(pending))
-            occupied = out.exists() and any(out.iterdir())
-            if occupied and not overwrite:
-                raise FileExistsError(
-                    f"--out {out} exists and is not empty; pass --overwrite to replace it, "
-                    f"or choose another path"
-                )
-            if occupied and not store.is_store(out):
-                raise FileExistsError(
-                    f"{out} exists and is not a tactile-synth dataset; refusing to overwrite "
-                    f"it (choose another --out or delete it yourself)"
-                )
-            _check_disk(out, len(rows))
-            if pending.exists():
-                shutil.rmtree(pending)  # an unfinished replacement: this import replaces it
-            options = {
-                "sample_rate_hz": sample_rate_hz,
-                "window_start_s": window_start_s,
-                "chunk_trials": chunk_trials,
-            }
-            try:
-                summary = _build(pending, rows, recordings, labels, options, progress)
-                if occupied:
-                    atomic.replace_dir(pending, out)
-                else:
-                    os.rename(pending, out)  # out is absent or an empty directory
-                    atomic.fsync_dir(out.parent)
-            except BaseException:
-                shutil.rmtree(pending, ignore_errors=True)
-                raise
-    except BaseException:
-        for p in made:  # directories made only for the lock file go again
-            try:
-                p.rmdir()
-            except OSError:
-                break
-        raise
+    with store.locked(out):
+        pending = store.pending_path(out)
+        atomic.recover(out, complete=store.is_complete(pending))
+        occupied = out.exists() and any(out.iterdir())
+        if occupied and not overwrite:
+            raise FileExistsError(
+                f"--out {out} exists and is not empty; pass --overwrite to replace it, "
+                f"or choose another path"
+            )
+        if occupied and not store.is_store(out):
+            raise FileExistsError(
+                f"{out} exists and is not a tactile-synth dataset; refusing to overwrite "
+                f"it (choose another --out or delete it yourself)"
+            )
+        _check_disk(out, len(rows))
+        if pending.exists():
+            shutil.rmtree(pending)  # an unfinished replacement: this import replaces it
+        options = {
+            "sample_rate_hz": sample_rate_hz,
+            "window_start_s": window_start_s,
+            "chunk_trials": chunk_trials,
+        }
+        try:
+            summary = _build(pending, rows, recordings, labels, options, progress)
+            if occupied:
+                atomic.replace_dir(pending, out)
+            else:
+                os.rename(pending, out)  # out is absent or an empty directory
+                atomic.fsync_dir(out.parent)
+        except BaseException:
+            shutil.rmtree(pending, ignore_errors=True)
+            raise
     summary.path = out
     unlisted = _unlisted(recordings, rows, labels)
     if unlisted:

@@ -239,16 +239,30 @@ def pending_path(path: str | Path) -> Path:
 @contextmanager
 def locked(path: str | Path) -> Iterator[None]:
     """Hold the writer lock of the dataset ``path`` (covers its pending replacement too);
-    :class:`DatasetLocked` at once if another process holds it."""
+    :class:`DatasetLocked` at once if another process holds it.
+
+    The lock file lives beside ``path``, so the missing directories above ``path`` are
+    created; if the block raises they are removed again (as far as they are empty), so a
+    failed or refused job leaves no empty directories behind.
+    """
+    made = [p for p in Path(os.path.abspath(path)).parents if not p.exists()]  # deepest first
     lock = atomic.PathLock(path)
     try:
-        lock.acquire()
-    except atomic.LockedError as exc:
-        raise DatasetLocked(Path(path), exc.pid) from None
-    try:
-        yield
-    finally:
-        lock.release()
+        try:
+            lock.acquire()
+        except atomic.LockedError as exc:
+            raise DatasetLocked(Path(path), exc.pid) from None
+        try:
+            yield
+        finally:
+            lock.release()
+    except BaseException:
+        for p in made:
+            try:
+                p.rmdir()
+            except OSError:  # not empty (or not ours to remove): stop there
+                break
+        raise
 
 
 def chunk_file(path: Path, name: str, chunk: int) -> Path:

@@ -199,6 +199,21 @@ def test_lock_is_exclusive_and_released(tmp_path):
         pass
 
 
+def test_lock_makes_missing_parents_and_a_failed_job_removes_them(tmp_path):
+    target = tmp_path / "a" / "b" / "ds"
+    with pytest.raises(RuntimeError), store.locked(target):
+        assert (tmp_path / "a" / "b").is_dir()  # the lock file lives there
+        raise RuntimeError("the job fails")
+    assert list(tmp_path.iterdir()) == []
+    with pytest.raises(KeyboardInterrupt), store.locked(target):
+        (tmp_path / "a" / "notes.txt").write_text("made meanwhile")
+        raise KeyboardInterrupt
+    assert [p.name for p in (tmp_path / "a").iterdir()] == ["notes.txt"]  # only b went
+    with store.locked(target):  # a job that succeeds keeps them
+        pass
+    assert (tmp_path / "a" / "b").is_dir() and not atomic.sibling(target, "lock").exists()
+
+
 def test_user_errors_leave_disk_untouched(tmp_path):
     out = run(tiny(), tmp_path / "ds")
     before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
