@@ -197,6 +197,7 @@ def _generate(args: argparse.Namespace) -> int:
     from . import store
     from .generation import generate
     from .simulator import SimulationError
+    from .summary import counted
 
     out = Path(args.out)
     config = config_from_args(args)
@@ -251,10 +252,12 @@ def _generate(args: argparse.Namespace) -> int:
     st = store.Store.open(out)
     cfg, meta = st.config, st.meta
     n, n_classes = st.n_trials, len(cfg.class_indices)
-    print(
-        f"wrote {args.out}: {n} trials ({n_classes} classes x {len(meta['conditions'])} "
-        f"conditions x {cfg.trials_per_class} trials) in {elapsed:.1f} s"
+    grid = (
+        f"{counted(n_classes, 'class', 'classes')} x "
+        f"{counted(len(meta['conditions']), 'condition')} x "
+        f"{counted(cfg.trials_per_class, 'trial')}"
     )
+    print(f"wrote {args.out}: {counted(n, 'trial')} ({grid}) in {elapsed:.1f} s")
     return 0
 
 
@@ -262,6 +265,7 @@ def _import(args: argparse.Namespace) -> int:
     import warnings
 
     from .importer import RecordingWarning, import_recordings
+    from .summary import counted
 
     start = time.perf_counter()
     try:
@@ -297,9 +301,10 @@ def _import(args: argparse.Namespace) -> int:
     }
     windows = ", ".join(f"{n} {how.get(k, k)}" for k, n in sorted(summary.windows.items()))
     print(
-        f"wrote {args.out}: {summary.n_trials} trials ({summary.n_classes} classes x "
-        f"{len(summary.conditions)} conditions) from {formats} recordings; windows: {windows}; "
-        f"in {elapsed:.1f} s"
+        f"wrote {args.out}: {counted(summary.n_trials, 'trial')} "
+        f"({counted(summary.n_classes, 'class', 'classes')} x "
+        f"{counted(len(summary.conditions), 'condition')}) from {formats} recordings; "
+        f"windows: {windows}; in {elapsed:.1f} s"
     )
     return 0
 

@@ -38,6 +38,7 @@ from tactile_synth.threads import available_cpus, init_worker, rollout_threads, 
 
 from . import atomic, store
 from .presets import GenerationConfig, plan, preset
+from .summary import counted
 from .trial import TrialSpec
 
 #: ``simulator(specs, synth_config_dict, threads) -> float32 (len(specs), 4, T)``.
@@ -191,8 +192,9 @@ def check_resources(config: GenerationConfig, out: Path, *, workers: int, local:
     where = store.existing_parent(out)
     free = shutil.disk_usage(where).free
     grid = (
-        f"{n:,} trials ({len(config.class_indices)} classes x {len(config.conditions)} "
-        f"conditions x {config.trials_per_class:,} trials per class)"
+        f"{n:,} trials ({counted(len(config.class_indices), 'class', 'classes')} x "
+        f"{counted(len(config.conditions), 'condition')} x {config.trials_per_class:,} "
+        f"trials per class)"
     )
     if disk > free:
         raise ValueError(

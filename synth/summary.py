@@ -11,6 +11,12 @@ import numpy as np
 from . import store
 
 
+def counted(n: int, noun: str, plural: str | None = None) -> str:
+    """``"1 class"``, ``"2 classes"``: ``n`` and the noun in the number it needs (``plural``
+    defaults to ``noun + "s"``)."""
+    return f"{n} {noun if n == 1 else plural or noun + 's'}"
+
+
 def channel_stats(chunks: Iterable[np.ndarray], n_channels: int) -> dict[str, np.ndarray]:
     """Per-channel mean, std, min, max, rms over ``chunks`` (each ``(b, C, T)``), streamed
     chunk by chunk. Returns arrays of shape ``(C,)`` (float64) and ``trials`` (how many
@@ -126,21 +132,23 @@ def _counts(values: list) -> str:
 def _origin_lines(st: store.Store) -> list[str]:
     """Where the data come from: the generation grid, or the import's sources."""
     meta, n = st.meta, st.n_trials
-    chunks = f"({n} trials, {st.n_chunks} chunks of {st.chunk_trials})"
+    chunks = f"({counted(n, 'trial')}, {counted(st.n_chunks, 'chunk')} of {st.chunk_trials})"
     if not st.imported:
         cfg = st.config
         return [
             f"config     preset={cfg.preset} seed={cfg.seed} "
-            f"{len(cfg.shapes)} shapes x {len(cfg.materials)} materials x "
-            f"{len(meta['conditions'])} conditions x {cfg.trials_per_class} trials {chunks}"
+            f"{counted(len(cfg.shapes), 'shape')} x {counted(len(cfg.materials), 'material')} x "
+            f"{counted(len(meta['conditions']), 'condition')} x "
+            f"{counted(cfg.trials_per_class, 'trial')} {chunks}"
         ]
     prov = meta.get("import") or {}
     trials = prov.get("trials") or {}
     classes = len(set(st.plan.label.tolist()))
     lines = [
         f"imported   from {prov.get('recordings', '?')} (labels {prov.get('labels', '?')}): "
-        f"{len(st.shapes)} shapes x {len(st.materials)} materials, {classes} classes x "
-        f"{len(meta['conditions'])} conditions {chunks}"
+        f"{counted(len(st.shapes), 'shape')} x {counted(len(st.materials), 'material')}, "
+        f"{counted(classes, 'class', 'classes')} x "
+        f"{counted(len(meta['conditions']), 'condition')} {chunks}"
     ]
     if trials.get("sample_rate_hz"):
         rates = [f"{r:g} Hz" for r in trials["sample_rate_hz"]]

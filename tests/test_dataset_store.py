@@ -233,6 +233,15 @@ def test_user_errors_leave_disk_untouched(tmp_path):
     assert (folder / "thesis.tex").read_text() == "precious"
 
 
+def test_counts_in_messages_take_the_number_they_need():
+    from synth.summary import counted
+
+    assert counted(1, "class", "classes") == "1 class"
+    assert counted(36, "class", "classes") == "36 classes"
+    conditions = [counted(n, "condition") for n in (0, 1, 8)]
+    assert conditions == ["0 conditions", "1 condition", "8 conditions"]
+
+
 def test_incompatible_format_version(tmp_path):
     out = run(tiny(), tmp_path / "ds")
     group = zarr.open_group(out, mode="r+")

@@ -237,7 +237,7 @@ def test_cli_import_prints_one_summary_and_the_warning(imported, tmp_path, capsy
     out = tmp_path / "cli"
     assert main(["import", str(root / "recs"), "--out", str(out)]) == 0
     cap = capsys.readouterr()
-    assert cap.out.startswith(f"wrote {out}: 24 trials (6 classes x 1 conditions)")
+    assert cap.out.startswith(f"wrote {out}: 24 trials (6 classes x 1 condition)")
     warnings = cap.err.strip().splitlines()
     assert len(warnings) == 1 and warnings[0].startswith("tactile-synth import: warning: resampled")
     # a second import onto it needs --overwrite
