@@ -195,16 +195,36 @@ def test_pools_of_torch_and_blas_follow_the_budget():
 
 
 def test_any_thread_can_resize_the_blas_pools():
-    # The main thread sizes the pools when the module loads; a worker thread (a cluster
-    # task's) resizes them, and the main thread again after it.
-    code = (
-        "import json, threading, numpy, threadpoolctl; from tactile_synth import threads as t; "
-        "blas = lambda: sorted({i['num_threads'] for i in threadpoolctl.threadpool_info() "
-        "if i['user_api'] == 'blas'}); seen = [blas()]; "
-        "w = threading.Thread(target=lambda: (t.configure(1), seen.append(blas()))); "
-        "w.start(); w.join(); t.configure(3); seen.append(blas()); print(json.dumps(seen))"
-    )
-    assert fresh(code, TACTILE_SYNTH_THREADS="2") == [[2], [1], [3]]
+    # The main thread sizes the pools (when the module loads and after numpy loads); a
+    # worker thread (a cluster task's) resizes them, the main thread again after it, and
+    # a library's own threadpool_limits block in another thread (NCFS's) still applies.
+    code = """
+import json, threading, numpy, threadpoolctl
+from tactile_synth import threads as t
+
+def blas():
+    return sorted({i["num_threads"] for i in threadpoolctl.threadpool_info()
+                   if i["user_api"] == "blas"})
+
+def in_thread(f):
+    w = threading.Thread(target=f)
+    w.start()
+    w.join()
+
+def block():
+    with threadpoolctl.threadpool_limits(limits=1, user_api="blas"):
+        seen.append(blas())
+
+t.configure()
+seen = [blas()]
+in_thread(lambda: (t.configure(1), seen.append(blas())))
+t.configure(3)
+seen.append(blas())
+in_thread(block)
+seen.append(blas())
+print(json.dumps(seen))
+"""
+    assert fresh(code, TACTILE_SYNTH_THREADS="2") == [[2], [1], [3], [1], [3]]
 
 
 # -- generation: one share per worker, and data independent of thread counts ---------------
