@@ -13,7 +13,8 @@ loaded / idle. Target: at most 2.5 (two jobs sharing the cores fairly take 2x).
 
 Works (``--work``):
   afop  the closed-set AFOP-ML table (every Table I column, ``--episodes`` each) on
-        ``--data`` (default /data/quick-v1), 386-feature pool included;
+        ``--data`` (default: the quick preset, generated once into a scratch directory
+        before any measurement), 386-feature pool included;
   test  tests/test_run.py::test_benchmark_all_writes_everything_and_is_deterministic.
 
 Loads (``--load``):
@@ -33,6 +34,7 @@ so measure on an otherwise idle machine for the figure to quote.
 from __future__ import annotations
 
 import argparse
+import atexit
 import json
 import os
 import shutil
@@ -151,7 +153,9 @@ def main() -> int:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--work", nargs="+", choices=("afop", "test"), default=["afop", "test"])
-    parser.add_argument("--data", default="/data/quick-v1", help="dataset of the afop work")
+    parser.add_argument(
+        "--data", help="dataset of the afop work (default: the quick preset, generated first)"
+    )
     parser.add_argument("--episodes", type=int, default=100, help="afop: episodes per column")
     parser.add_argument("--rounds", type=int, default=1, help="idle/loaded pairs per work")
     parser.add_argument("--load", choices=("spin", "run"), default="spin")
@@ -174,8 +178,17 @@ def main() -> int:
         value = getattr(args, name)
         if value is not None and value < 1:
             parser.error(f"--{name.replace('_', '-')} must be >= 1; got {value}")
-    if "afop" in args.work and not Path(args.data).is_dir():
+    if "afop" in args.work and args.data is not None and not Path(args.data).is_dir():
         parser.error(f"--data {args.data} is not a dataset directory")
+    if "afop" in args.work and args.data is None:
+        import synth
+        from synth.presets import preset
+
+        scratch = tempfile.mkdtemp(prefix="bench-load-data-")
+        atexit.register(shutil.rmtree, scratch, ignore_errors=True)
+        args.data = str(Path(scratch) / "quick")
+        print(f"generating the quick preset into {args.data} (not timed)", flush=True)
+        synth.generate(preset("quick"), args.data, progress=False)
 
     from tactile_synth.threads import available_cpus
 
