@@ -31,7 +31,7 @@ from synth import SAMPLE_RATE_HZ
 
 from .base import FewShotMethod
 from .cnn import LRS, STEPS, VAL_EPISODES
-from .nets import ChannelScaler, PoolCache, select_steps_lr, train_per_episode, validation_episodes
+from .nets import ChannelScaler, PoolCache, steps_and_lr, train_per_episode
 
 FRAMES = 25
 #: Frame window (samples at 1 kHz): 160 ms, two hops, so frames overlap by half.
@@ -184,16 +184,16 @@ class BiLSTMBaseline(FewShotMethod):
         frames = frame_features(self.scaler_.transform(signals))
         self.frame_scaler_ = _FrameScaler().fit(frames)
         self.feature_dim_ = 2 * HIDDEN
-        if self.steps is not None and self.lr is not None:
-            self.lr_, self.steps_, self.selection_ = float(self.lr), int(self.steps), None
-            return
-        x = torch.as_tensor(self.frame_scaler_.transform(frames))
-        batches = validation_episodes(labels, seed=self.seed, episodes=VAL_EPISODES)
-        self.lr_, self.steps_, self.selection_ = select_steps_lr(
-            lambda b, lr, marks: _train(x, b.support, b.query, steps=marks, lr=lr, seed=self.seed),
-            batches,
-            lrs=LRS if self.lr is None else (self.lr,),
-            steps=STEPS if self.steps is None else (self.steps,),
+        self.lr_, self.steps_, self.selection_ = steps_and_lr(
+            steps=self.steps,
+            lr=self.lr,
+            inputs=lambda: torch.as_tensor(self.frame_scaler_.transform(frames)),
+            labels=labels,
+            train=_train,
+            seed=self.seed,
+            lrs=LRS,
+            grid_steps=STEPS,
+            episodes=VAL_EPISODES,
         )
 
     def _inputs(self, signals: np.ndarray) -> torch.Tensor:

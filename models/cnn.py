@@ -38,9 +38,8 @@ from .nets import (
     episode_inputs,
     init_cnn,
     resample,
-    select_steps_lr,
+    steps_and_lr,
     train_per_episode,
-    validation_episodes,
 )
 
 LAYERS = (
@@ -98,16 +97,16 @@ class CNNBaseline(FewShotMethod):
         small = resample(signals)
         self.scaler_ = ChannelScaler().fit(small)
         self.feature_dim_ = LAYERS[-1].c_out
-        if self.steps is not None and self.lr is not None:
-            self.lr_, self.steps_, self.selection_ = float(self.lr), int(self.steps), None
-            return
-        x = torch.as_tensor(self.scaler_.transform(small))
-        batches = validation_episodes(labels, seed=self.seed, episodes=VAL_EPISODES)
-        self.lr_, self.steps_, self.selection_ = select_steps_lr(
-            lambda b, lr, marks: _train(x, b.support, b.query, steps=marks, lr=lr, seed=self.seed),
-            batches,
-            lrs=LRS if self.lr is None else (self.lr,),
-            steps=STEPS if self.steps is None else (self.steps,),
+        self.lr_, self.steps_, self.selection_ = steps_and_lr(
+            steps=self.steps,
+            lr=self.lr,
+            inputs=lambda: torch.as_tensor(self.scaler_.transform(small)),
+            labels=labels,
+            train=_train,
+            seed=self.seed,
+            lrs=LRS,
+            grid_steps=STEPS,
+            episodes=VAL_EPISODES,
         )
 
     def _predict(

@@ -300,3 +300,34 @@ def select_steps_lr(
     i, j = best[3], best[4]
     table = {"lr": list(lrs), "steps": marks, "accuracy": acc.round(4).tolist()}
     return float(lrs[i]), int(marks[j]), table
+
+
+def steps_and_lr(
+    *,
+    steps: int | None,
+    lr: float | None,
+    inputs: Callable[[], torch.Tensor],
+    labels: np.ndarray,
+    train: Callable[..., np.ndarray],
+    seed: int,
+    lrs: Sequence[float],
+    grid_steps: Sequence[int],
+    episodes: int,
+) -> tuple[float, int, dict | None]:
+    """``(lr, steps, table)`` of a per-episode network: the given values when both are
+    given (no table), otherwise the grid's best on validation episodes of the training
+    labels (:func:`select_steps_lr`; a given value fixes its axis of the grid).
+
+    ``inputs()`` -> the training pool's network input ``(P, ...)``; ``train(x, support,
+    query, steps=, lr=, seed=)`` -> predictions as :func:`train_per_episode` returns them.
+    """
+    if steps is not None and lr is not None:
+        return float(lr), int(steps), None
+    x = inputs()
+    batches = validation_episodes(labels, seed=seed, episodes=episodes)
+    return select_steps_lr(
+        lambda b, rate, marks: train(x, b.support, b.query, steps=marks, lr=rate, seed=seed),
+        batches,
+        lrs=lrs if lr is None else (lr,),
+        steps=grid_steps if steps is None else (steps,),
+    )
