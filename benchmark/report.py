@@ -17,7 +17,10 @@ from typing import Any
 
 import numpy as np
 
+from synth import Dataset
+
 from . import paper_reference as paper
+from .checkpoints import fingerprint
 from .results import select
 from .tables import episodes_note, markdown_table, ms, pct, table_one_lines
 
@@ -25,6 +28,21 @@ TIMING_START = "<!-- timing -->"
 TIMING_END = "<!-- /timing -->"
 GENERALISATION = ("cross-shape", "cross-material", "perturbation")
 _TIMING_RE = re.compile(re.escape(TIMING_START) + r".*?" + re.escape(TIMING_END), re.S)
+
+
+def dataset_summary(data: Dataset, path: str | Path | None) -> str:
+    """One line on a dataset for the report: where, size, conditions, fingerprint."""
+    conds = sorted(
+        {(float(f), float(s)) for f, s in zip(data.force_n, data.speed_mm_s, strict=True)}
+    )
+    n_cls = np.unique(data.label).size
+    per_cls = np.unique(np.unique(data.label, return_counts=True)[1])
+    cond = ", ".join(f"{f:g} N/{s:g} mm/s" for f, s in conds)
+    where = f"`{path}`, " if path is not None else ""
+    return (
+        f"{where}{len(data)} trials, {n_cls} classes, {'/'.join(map(str, per_cls))} trials "
+        f"per class, conditions: {cond}; fingerprint {fingerprint(data)}"
+    )
 
 
 def strip_timing(text: str) -> str:
