@@ -90,7 +90,8 @@ def benchmark_protocol(
         if any(r["protocol"] in curves for r in select(records, "accuracy")):
             figures.generalisation_curves(records, out / "generalisation.png")
             made["generalisation"] = "generalisation.png"
-        if select(records, "selection"):
+        bars = {protocol for protocol, _ in figures.SELECTION_ORDER}
+        if any(r["protocol"] in bars for r in select(records, "selection")):
             figures.selection_bars(records, out / "selection.png")
             made["selection"] = "selection.png"
         meta = {
