@@ -31,7 +31,6 @@ def full_budget(methods: Sequence[str]) -> Budget:
     return Budget(default=500, generalisation_per_method=dict.fromkeys(methods, 100))
 
 
-FULL_BUDGET = full_budget(METHOD_NAMES)
 QUICK_METHODS: tuple[str, ...] = ("AFOP-ML", "AFO-MLP-ML", "Direct-Prot-ML")
 QUICK_BUDGET = Budget(default=100)
 

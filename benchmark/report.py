@@ -219,6 +219,31 @@ def perturbation_grid_section(records: Sequence[dict]) -> list[str]:
     return lines
 
 
+def other_protocols_section(records: Sequence[dict]) -> list[str]:
+    """Accuracy tables of protocols other than the paper's four (plug-ins): per method,
+    one column per (shot, way), over all folds where the protocol has folds."""
+    known = ("closed-set", *GENERALISATION)
+    others = dict.fromkeys(r["protocol"] for r in _acc(records) if r["protocol"] not in known)
+    lines: list[str] = []
+    for protocol in others:
+        rs = _acc(records, protocol=protocol)
+        rs = [r for r in rs if r["fold"] is None] or rs
+        for condition in dict.fromkeys(r["condition"] for r in rs):
+            mine = [r for r in rs if r["condition"] == condition]
+            cells = sorted({(r["shot"], r["way"]) for r in mine})
+            title = protocol if condition is None else f"{protocol}, {condition}"
+            lines += [f"## Protocol {title}", ""]
+            lines.append("Accuracy in % (mean ± 95 % CI); columns: K-shot / N-way.")
+            lines.append("")
+            rows = []
+            for m in dict.fromkeys(r["method"] for r in mine):
+                row = [pct(_one(mine, method=m, shot=k, way=n)) for k, n in cells]
+                rows.append([m, *row, episodes_note([r for r in mine if r["method"] == m])])
+            header = ["method", *[f"{k}-shot {n}-way" for k, n in cells], "episodes"]
+            lines += [*markdown_table(header, rows), ""]
+    return lines
+
+
 def interpretability_section(records: Sequence[dict]) -> list[str]:
     lines = ["## Interpretability (Fig. 6, Fig. 7)", ""]
     sel = select(records, "selection")
@@ -437,6 +462,7 @@ def render(records: Sequence[dict], meta: Mapping[str, Any]) -> str:
     lines += closed_set_section(records)
     lines += generalisation_section(records, meta)
     lines += perturbation_grid_section(records)
+    lines += other_protocols_section(records)
     lines += interpretability_section(records)
     lines += figures_section(records, meta)
     lines += timing_section(records)

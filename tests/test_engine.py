@@ -123,7 +123,9 @@ def test_plugin_protocol_on_the_command_line_and_as_entry_point(tmp_path, monkey
         args = ["benchmark", name, "--data", str(store), "--out", str(out), "--episodes", "5"]
         assert main([*args, "--methods", "Direct-Prot-ML"]) == 0, capsys.readouterr().err
         results.append(select(read_results(out / "results.json"), "accuracy"))
-        assert "protocol leave-one-material-out only" in (out / "report.md").read_text()
+        report = (out / "report.md").read_text()
+        assert "protocol leave-one-material-out only" in report
+        assert "## Protocol leave-one-material-out" in report and "1-shot 5-way" in report
     assert [r["accuracy"] for r in results[0]] == [r["accuracy"] for r in results[1]]
     assert {r["protocol"] for r in results[0]} == {"leave-one-material-out"}
     capsys.readouterr()
