@@ -50,7 +50,13 @@ def _register_benchmark(subparsers: argparse._SubParsersAction) -> None:
             "('all' also runs the interpretability analysis)."
         ),
     )
-    p.add_argument("protocol", choices=(*PROTOCOL_NAMES, "all"))
+    p.add_argument(
+        "protocol",
+        metavar="PROTOCOL",
+        help=f"{', '.join(PROTOCOL_NAMES)} or all; or an installed plug-in protocol (entry "
+        "point group tactile_synth.protocols), or module:Class / path/to/file.py:Class of a "
+        "benchmark.engine.Protocol subclass (docs/protocols.md)",
+    )
     p.add_argument("--data", required=True, metavar="PATH", help="nominal dataset (Zarr store)")
     p.add_argument(
         "--perturbed", metavar="PATH", help="perturbation dataset (perturbation and all)"

@@ -4,12 +4,15 @@ Each function takes results.json records (or arrays) and a path, writes one PNG 
 returns the path. Figures follow the paper: Fig. 5 (generalisation curves with the
 closed-set curve dashed), Fig. 6 (median D and sensor shares), Fig. 7 (t-SNE), plus the
 D-scan curve, the perturbation heat map and example signals per class.
+:func:`draw_figures` writes them all for ``benchmark all`` / ``run`` and
+:func:`figure_notes` gives each its caption for the report.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -22,6 +25,7 @@ from shapes import SHAPE_NAMES
 from synth import CHANNELS, MATERIAL_NAMES, SAMPLE_RATE_HZ, Dataset
 from synth.presets import NOMINAL_FORCE_N, NOMINAL_SPEED_MM_S
 
+from .interpret import Artefacts
 from .results import select
 from .splits import parse_condition
 
@@ -329,3 +333,107 @@ def example_signals(data: Dataset, path: str | Path) -> Path:
         },
         title="Example signals: the first trial of each class",
     )
+
+
+#: Figure key -> file name (fixed, so reports and READMEs can link them).
+FIGURE_FILES: dict[str, str] = {
+    "dscan": "dscan.png",
+    "generalisation": "generalisation.png",
+    "perturbation_heatmap": "perturbation_heatmap.png",
+    "selection": "selection.png",
+    "tsne": "tsne.png",
+    "signals": "example_signals.png",
+}
+
+
+def draw_figures(
+    records: Sequence[Mapping[str, Any]], data: Dataset, art: Artefacts, out: Path
+) -> dict[str, str]:
+    """Write every PNG into ``out``; returns figure key -> file name (relative)."""
+    made: dict[str, str] = {}
+    if art.dscan is not None:
+        dscan_curve(art.dscan, art.chosen_d, out / FIGURE_FILES["dscan"])
+        made["dscan"] = FIGURE_FILES["dscan"]
+    generalisation_curves(records, out / FIGURE_FILES["generalisation"])
+    made["generalisation"] = FIGURE_FILES["generalisation"]
+    pert_methods = list(
+        dict.fromkeys(r["method"] for r in select(records, "accuracy", protocol="perturbation"))
+    )
+    if pert_methods:
+        perturbation_heatmap(
+            records, out / FIGURE_FILES["perturbation_heatmap"], methods=pert_methods
+        )
+        made["perturbation_heatmap"] = FIGURE_FILES["perturbation_heatmap"]
+    selection_bars(records, out / FIGURE_FILES["selection"])
+    made["selection"] = FIGURE_FILES["selection"]
+    tsne_scatter(
+        art.emb, art.shape, art.material, art.indicators, out / FIGURE_FILES["tsne"], d=art.chosen_d
+    )
+    made["tsne"] = FIGURE_FILES["tsne"]
+    example_signals(data, out / FIGURE_FILES["signals"])
+    made["signals"] = FIGURE_FILES["signals"]
+    return made
+
+
+def _episodes_of(records: Sequence[Mapping[str, Any]], **match: Any) -> str:
+    eps: dict[str, set[int]] = {}
+    for r in select(records, "accuracy", **match):
+        eps.setdefault(r["method"], set()).add(r["episodes"])
+    return ", ".join(f"{m} {'/'.join(map(str, sorted(e)))}" for m, e in eps.items())
+
+
+def figure_notes(records: Sequence[Mapping[str, Any]], art: Artefacts, seed: int) -> dict[str, str]:
+    """One-paragraph summary of each figure: what it shows, numbers, episode counts."""
+
+    def _one(records: Sequence[Mapping[str, Any]], **match: Any) -> Mapping[str, Any] | None:
+        return next(iter(select(records, "accuracy", **match)), None)
+
+    notes: dict[str, str] = {}
+    if art.dscan is not None:
+        d = np.asarray(art.dscan["D"])
+        notes["dscan"] = (
+            f"AFOP-ML validation accuracy vs number of top-ranked features D "
+            f"({int(d.min())}..{int(d.max())}) on held-out episodes of the closed-set "
+            f"training half, 95 % CI band; chosen D = {art.chosen_d}."
+        )
+    parts = []
+    for protocol, cond in (
+        ("cross-shape", None),
+        ("cross-material", None),
+        ("perturbation", "pooled"),
+    ):
+        a2 = _one(records, protocol=protocol, condition=cond, fold=None, method="AFOP-ML", way=2)
+        a12 = _one(records, protocol=protocol, condition=cond, fold=None, method="AFOP-ML", way=12)
+        if a2 and a12:
+            parts.append(
+                f"{protocol}: AFOP-ML {100 * a2['accuracy']:.1f} % (2-way) → "
+                f"{100 * a12['accuracy']:.1f} % (12-way), episodes per way "
+                f"[{_episodes_of(records, protocol=protocol, condition=cond, fold=None, way=5)}]"
+            )
+    notes["generalisation"] = (
+        "1-shot accuracy vs N (2..12) with 95 % CI bands per method; the dashed black line is "
+        f"closed-set AFOP-ML ({art.reference_episodes} episodes per way). " + "; ".join(parts) + "."
+    )
+    notes["perturbation_heatmap"] = (
+        "5-way-1-shot accuracy per force x speed condition after fitting at the nominal "
+        "1 N / 10 mm/s; episodes per cell: "
+        f"[{_episodes_of(records, protocol='perturbation', way=5)}]."
+    )
+    sel = select(records, "selection")
+    notes["selection"] = (
+        "Median AFOP-ML D per task (bars) and PVDF / SG shares of the selected features "
+        f"(lines); {len(sel)} fits (3 folds each for cross-shape and cross-material, 1 each "
+        "for closed-set and perturbation)."
+    )
+    ind = art.indicators
+    notes["tsne"] = (
+        f"t-SNE of the {art.emb.shape[0]} closed-set test-half trials in AFOP-ML's "
+        f"top-{art.chosen_d} feature space; markers = shape, colours = material. "
+        f"1-NN = {ind['nn1_shape_accuracy']:.3f}, mix-sil = {ind['mix_sil']:.3f}, "
+        f"DGI = {ind['dgi']:.3f} (t-SNE seed {seed})."
+    )
+    notes["signals"] = (
+        "The first trial of each class, 4 channels each, every channel standardised over "
+        "the plotted trials."
+    )
+    return notes

@@ -1,5 +1,7 @@
 """Interpretability (paper Section V-D): sensor shares of the selected features, a t-SNE of
-the closed-set top-D features and the paper's three indicators of Fig. 7.
+the closed-set top-D features and the paper's three indicators of Fig. 7, and
+:func:`analyse`, which produces them (with the D-scan and the closed-set reference curve)
+from the closed-set AFOP-ML fit.
 
 Indicator definitions (computed on the 2-D t-SNE embedding, as the paper's figure):
 
@@ -29,12 +31,19 @@ Indicator definitions (computed on the 2-D t-SNE embedding, as the paper's figur
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from shapes.validation import check_int
+
+if TYPE_CHECKING:
+    from synth import Dataset
+
+    from .engine import Features
+    from .results import Record
 
 
 def sensor_shares(selected: Sequence[int], feature_names: Sequence[str]) -> tuple[float, float]:
@@ -148,3 +157,84 @@ def tsne_indicators(emb: np.ndarray, shape: np.ndarray, material: np.ndarray) ->
         mix_sil=mixing_silhouette(emb, shape, material),
         dgi=geometric_impostor_ratio(emb, shape, material),
     )
+
+
+@dataclass(frozen=True)
+class Artefacts:
+    """In-memory results behind Fig. 7 and the D-scan figure (not in results.json rows).
+
+    dscan: AFOP-ML's ``dscan_`` (``D``, ``mean``, ``ci95`` arrays) or None; chosen_d: its D;
+    emb: ``(n, 2)`` t-SNE of the closed-set test half; shape, material: ``(n,)`` labels;
+    indicators: the three Fig. 7 indicators; reference_episodes: episodes per way of the
+    reference curve.
+    """
+
+    dscan: Mapping[str, Sequence[float]] | None
+    chosen_d: int
+    emb: np.ndarray
+    shape: np.ndarray
+    material: np.ndarray
+    indicators: Mapping[str, float]
+    reference_episodes: int
+
+
+def analyse(
+    data: Dataset, *, features: Features, episodes: int, seed: int, progress: bool
+) -> tuple[list[Record], Artefacts]:
+    """The closed-set AFOP-ML fit (:class:`benchmark.protocols.closed_set.Reference`, run
+    by the engine): its reference-curve records, a ``dscan`` record, and the t-SNE of the
+    closed-set test half in its top-D space with the indicators (``tsne`` record)."""
+    from .engine import run_protocol
+    from .protocols.closed_set import Reference
+    from .results import dscan_record, tsne_record
+
+    fitted: list = []
+    reference = Reference()
+    records: list[Record] = run_protocol(
+        reference,
+        data,
+        methods=["AFOP-ML"],
+        episodes=episodes,
+        seed=seed,
+        progress=progress,
+        features=features,
+        on_fit=lambda task, _name, model: fitted.append((task, model)),
+    )
+    task, model = fitted[0]
+    dscan = getattr(model, "dscan_", None)
+    if dscan is not None:
+        records.append(
+            dscan_record(
+                protocol=task.protocol,
+                D=np.asarray(dscan["D"]).tolist(),
+                mean=np.asarray(dscan["mean"]).tolist(),
+                ci95=np.asarray(dscan["ci95"]).tolist(),
+            )
+        )
+    test = task.test.index
+    top = features.of(data)[test][:, np.asarray(model.selected_)]
+    emb = tsne_embedding(top, seed=seed)
+    ind = tsne_indicators(emb, data.shape[test], data.material[test])
+    records.append(
+        tsne_record(
+            protocol=task.protocol,
+            D=int(model.D_),
+            nn1_shape_accuracy=ind.nn1_shape_accuracy,
+            mix_sil=ind.mix_sil,
+            dgi=ind.dgi,
+        )
+    )
+    art = Artefacts(
+        dscan=dscan,
+        chosen_d=int(model.D_),
+        emb=emb,
+        shape=np.asarray(data.shape[test]),
+        material=np.asarray(data.material[test]),
+        indicators={
+            "nn1_shape_accuracy": ind.nn1_shape_accuracy,
+            "mix_sil": ind.mix_sil,
+            "dgi": ind.dgi,
+        },
+        reference_episodes=episodes,
+    )
+    return records, art

@@ -17,7 +17,10 @@ from typing import Any
 
 import numpy as np
 
+from synth import Dataset
+
 from . import paper_reference as paper
+from .checkpoints import fingerprint
 from .results import select
 from .tables import episodes_note, markdown_table, ms, pct, table_one_lines
 
@@ -25,6 +28,21 @@ TIMING_START = "<!-- timing -->"
 TIMING_END = "<!-- /timing -->"
 GENERALISATION = ("cross-shape", "cross-material", "perturbation")
 _TIMING_RE = re.compile(re.escape(TIMING_START) + r".*?" + re.escape(TIMING_END), re.S)
+
+
+def dataset_summary(data: Dataset, path: str | Path | None) -> str:
+    """One line on a dataset for the report: where, size, conditions, fingerprint."""
+    conds = sorted(
+        {(float(f), float(s)) for f, s in zip(data.force_n, data.speed_mm_s, strict=True)}
+    )
+    n_cls = np.unique(data.label).size
+    per_cls = np.unique(np.unique(data.label, return_counts=True)[1])
+    cond = ", ".join(f"{f:g} N/{s:g} mm/s" for f, s in conds)
+    where = f"`{path}`, " if path is not None else ""
+    return (
+        f"{where}{len(data)} trials, {n_cls} classes, {'/'.join(map(str, per_cls))} trials "
+        f"per class, conditions: {cond}; fingerprint {fingerprint(data)}"
+    )
 
 
 def strip_timing(text: str) -> str:
@@ -198,6 +216,31 @@ def perturbation_grid_section(records: Sequence[dict]) -> list[str]:
         rows = [[f"{f:g} N", *[pct(cells.get((f, s))) for s in speeds]] for f in forces]
         lines += markdown_table(["force \\ speed", *[f"{s:g} mm/s" for s in speeds]], rows)
         lines.append("")
+    return lines
+
+
+def other_protocols_section(records: Sequence[dict]) -> list[str]:
+    """Accuracy tables of protocols other than the paper's four (plug-ins): per method,
+    one column per (shot, way), over all folds where the protocol has folds."""
+    known = ("closed-set", *GENERALISATION)
+    others = dict.fromkeys(r["protocol"] for r in _acc(records) if r["protocol"] not in known)
+    lines: list[str] = []
+    for protocol in others:
+        rs = _acc(records, protocol=protocol)
+        rs = [r for r in rs if r["fold"] is None] or rs
+        for condition in dict.fromkeys(r["condition"] for r in rs):
+            mine = [r for r in rs if r["condition"] == condition]
+            cells = sorted({(r["shot"], r["way"]) for r in mine})
+            title = protocol if condition is None else f"{protocol}, {condition}"
+            lines += [f"## Protocol {title}", ""]
+            lines.append("Accuracy in % (mean ± 95 % CI); columns: K-shot / N-way.")
+            lines.append("")
+            rows = []
+            for m in dict.fromkeys(r["method"] for r in mine):
+                row = [pct(_one(mine, method=m, shot=k, way=n)) for k, n in cells]
+                rows.append([m, *row, episodes_note([r for r in mine if r["method"] == m])])
+            header = ["method", *[f"{k}-shot {n}-way" for k, n in cells], "episodes"]
+            lines += [*markdown_table(header, rows), ""]
     return lines
 
 
@@ -419,6 +462,7 @@ def render(records: Sequence[dict], meta: Mapping[str, Any]) -> str:
     lines += closed_set_section(records)
     lines += generalisation_section(records, meta)
     lines += perturbation_grid_section(records)
+    lines += other_protocols_section(records)
     lines += interpretability_section(records)
     lines += figures_section(records, meta)
     lines += timing_section(records)

@@ -1,9 +1,14 @@
 """results.json records, their file I/O (JSON, atomic, no pickle) and a query helper.
 
-A results.json file is a plain JSON list of records (dicts); ``record`` names the kind
-(``accuracy``, ``selection``, ``tsne``, ``dscan``) and ``schema_version`` the layout
-(:data:`SCHEMA_VERSION`). Every field, its type, unit and null rules are documented in
-``docs/results.md``; :func:`read_results` refuses a file of another schema version.
+A results.json file is a plain JSON list of records (objects); ``record`` names the kind
+(``accuracy``, ``selection``, ``tsne``, ``dscan``, ``meta_curve``) and ``schema_version``
+the layout (:data:`SCHEMA_VERSION`). Every field, its type, unit and null rules are
+documented in ``docs/results.md``; :func:`read_results` refuses a file of another schema
+version.
+
+In memory each kind is a frozen dataclass (:class:`AccuracyRecord`, ...) that is also a
+read-only mapping of its JSON fields, so code can write ``r.accuracy`` or
+``r["accuracy"]`` and :func:`select` queries typed records and plain dicts alike.
 
 Timing fields of an accuracy record (wall clock, machine- and load-dependent; the only
 fields allowed to differ between two runs with the same seed, see :data:`TIMING_FIELDS`):
@@ -26,9 +31,12 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
+
+import numpy as np
 
 from shapes.validation import check_choice
 
@@ -38,8 +46,6 @@ from .evaluate import EvalResult
 #: checked by :func:`read_results`. Raise it when a field changes meaning, type or unit,
 #: or is removed; adding a record kind or an optional field keeps it.
 SCHEMA_VERSION: int = 1
-#: The record kinds this version writes (``record`` field).
-RECORD_KINDS: tuple[str, ...] = ("accuracy", "selection", "tsne", "dscan")
 
 ACCURACY_FIELDS: tuple[str, ...] = (
     "record",
@@ -70,6 +76,148 @@ TIMING_FIELDS: tuple[str, ...] = (
 )
 
 
+class _Record(Mapping[str, Any]):
+    """Base of the record dataclasses: typed attributes, and the read-only mapping view
+    that results.json holds (``record`` and ``schema_version`` first, then the fields in
+    declaration order), so ``r.accuracy`` and ``r["accuracy"]`` are the same value and
+    ``dict(r)`` is the JSON object."""
+
+    kind: ClassVar[str]
+
+    @classmethod
+    def names(cls) -> tuple[str, ...]:
+        """The JSON field names of this kind, in file order."""
+        return ("record", "schema_version", *(f.name for f in fields(cls)))  # type: ignore[arg-type]
+
+    def __getitem__(self, key: str) -> Any:
+        if key == "record":
+            return self.kind
+        if key == "schema_version":
+            return SCHEMA_VERSION
+        if key in self._field_names():
+            return getattr(self, key)
+        raise KeyError(key)
+
+    @classmethod
+    def _field_names(cls) -> frozenset[str]:
+        return frozenset(f.name for f in fields(cls))  # type: ignore[arg-type]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.names())
+
+    def __len__(self) -> int:
+        return len(self.names())
+
+    def to_dict(self) -> dict[str, Any]:
+        """The record as results.json holds it (non-finite floats become None)."""
+        return _clean({k: self[k] for k in self.names()})
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> _Record:
+        """The record of ``d`` (a results.json object of this kind); extra fields, which a
+        later version of the same schema may add, are ignored."""
+        missing = [k for k in cls._field_names() if k not in d]
+        if missing:
+            names = ", ".join(sorted(missing))
+            raise ValueError(f"a {cls.kind!r} record lacks the field(s) {names}")
+        return cls(**{k: d[k] for k in cls._field_names()})
+
+
+def _fold(value: Any) -> int | str | None:
+    return value if value is None or isinstance(value, str) else int(value)
+
+
+def _opt_float(value: float | None) -> float | None:
+    return None if value is None else float(value)
+
+
+@dataclass(frozen=True, eq=False)
+class AccuracyRecord(_Record):
+    """One (protocol, fold, condition, method, way, shot) cell: fields in docs/results.md."""
+
+    kind: ClassVar[str] = "accuracy"
+    protocol: str
+    fold: int | str | None
+    condition: str | None
+    method: str
+    way: int
+    shot: int
+    query: int
+    episodes: int
+    accuracy: float
+    ci95: float
+    pretrain_s: float
+    adapt_ms_per_episode: float
+    latency_ms_per_episode: float | None
+    latency_with_features_ms_per_episode: float | None
+    latency_episodes: int
+    feature_dim: int | None
+
+
+@dataclass(frozen=True, eq=False)
+class SelectionRecord(_Record):
+    """AFOP-ML's chosen D and the PVDF/SG shares of its top-D features, per fit."""
+
+    kind: ClassVar[str] = "selection"
+    protocol: str
+    fold: int | str | None
+    D: int
+    pvdf_share: float
+    sg_share: float
+
+
+@dataclass(frozen=True, eq=False)
+class TsneRecord(_Record):
+    """The paper's t-SNE indicators of the top-D embedding."""
+
+    kind: ClassVar[str] = "tsne"
+    protocol: str
+    fold: int | str | None
+    D: int
+    nn1_shape_accuracy: float
+    mix_sil: float
+    dgi: float
+
+
+@dataclass(frozen=True, eq=False)
+class DscanRecord(_Record):
+    """AFOP-ML's D-scan: validation accuracy (mean, 95 % CI half-width) per candidate D."""
+
+    kind: ClassVar[str] = "dscan"
+    protocol: str
+    fold: int | str | None
+    D: list[int]
+    mean: list[float]
+    ci95: list[float]
+
+
+@dataclass(frozen=True, eq=False)
+class MetaCurveRecord(_Record):
+    """A meta-learner's validation curve during ``fit`` (held-out training classes).
+
+    step: the outer (meta-training) step of each point; accuracy: the validation accuracy
+    there; meta_gradient: how the method states its meta-gradient (MAML:
+    ``"first-order"``), None when it does not say.
+    """
+
+    kind: ClassVar[str] = "meta_curve"
+    protocol: str
+    fold: int | str | None
+    method: str
+    step: list[int]
+    accuracy: list[float]
+    meta_gradient: str | None
+
+
+#: Record kind -> its dataclass.
+RECORD_TYPES: dict[str, type[_Record]] = {
+    t.kind: t for t in (AccuracyRecord, SelectionRecord, TsneRecord, DscanRecord, MetaCurveRecord)
+}
+#: The record kinds this version writes (``record`` field).
+RECORD_KINDS: tuple[str, ...] = tuple(RECORD_TYPES)
+Record = AccuracyRecord | SelectionRecord | TsneRecord | DscanRecord | MetaCurveRecord
+
+
 def accuracy_record(
     *,
     protocol: str,
@@ -82,92 +230,111 @@ def accuracy_record(
     result: EvalResult,
     pretrain_s: float,
     feature_dim: int | None,
-) -> dict[str, Any]:
-    """One (protocol, fold, condition, method, way, shot) accuracy record."""
-    return {
-        "record": "accuracy",
-        "schema_version": SCHEMA_VERSION,
-        "protocol": protocol,
-        "fold": fold,
-        "condition": condition,
-        "method": method,
-        "way": int(way),
-        "shot": int(shot),
-        "query": int(query),
-        "episodes": int(result.episodes),
-        "accuracy": float(result.accuracy),
-        "ci95": float(result.ci95),
-        "pretrain_s": float(pretrain_s),
-        "adapt_ms_per_episode": float(result.batch_ms_per_episode),
-        "latency_ms_per_episode": _float_or_none(result.latency_ms_per_episode),
-        "latency_with_features_ms_per_episode": _float_or_none(
+) -> AccuracyRecord:
+    """One (protocol, fold, condition, method, way, shot) accuracy record of ``result``."""
+    return AccuracyRecord(
+        protocol=protocol,
+        fold=_fold(fold),
+        condition=condition,
+        method=method,
+        way=int(way),
+        shot=int(shot),
+        query=int(query),
+        episodes=int(result.episodes),
+        accuracy=float(result.accuracy),
+        ci95=float(result.ci95),
+        pretrain_s=float(pretrain_s),
+        adapt_ms_per_episode=float(result.batch_ms_per_episode),
+        latency_ms_per_episode=_opt_float(result.latency_ms_per_episode),
+        latency_with_features_ms_per_episode=_opt_float(
             result.latency_with_features_ms_per_episode
         ),
-        "latency_episodes": int(result.latency_episodes),
-        "feature_dim": None if feature_dim is None else int(feature_dim),
-    }
-
-
-def _float_or_none(value: float | None) -> float | None:
-    return None if value is None else float(value)
+        latency_episodes=int(result.latency_episodes),
+        feature_dim=None if feature_dim is None else int(feature_dim),
+    )
 
 
 def selection_record(
     *, protocol: str, fold: int | str | None, D: int, pvdf_share: float, sg_share: float
-) -> dict[str, Any]:
+) -> SelectionRecord:
     """AFOP-ML's chosen D and the PVDF/SG shares of its top-D features."""
-    return {
-        "record": "selection",
-        "schema_version": SCHEMA_VERSION,
-        "protocol": protocol,
-        "fold": fold,
-        "D": int(D),
-        "pvdf_share": float(pvdf_share),
-        "sg_share": float(sg_share),
-    }
+    return SelectionRecord(
+        protocol=protocol,
+        fold=_fold(fold),
+        D=int(D),
+        pvdf_share=float(pvdf_share),
+        sg_share=float(sg_share),
+    )
 
 
 def tsne_record(
     *, protocol: str, D: int, nn1_shape_accuracy: float, mix_sil: float, dgi: float
-) -> dict[str, Any]:
+) -> TsneRecord:
     """The paper's t-SNE indicators of the top-D embedding."""
-    return {
-        "record": "tsne",
-        "schema_version": SCHEMA_VERSION,
-        "protocol": protocol,
-        "fold": None,
-        "D": int(D),
-        "nn1_shape_accuracy": float(nn1_shape_accuracy),
-        "mix_sil": float(mix_sil),
-        "dgi": float(dgi),
-    }
+    return TsneRecord(
+        protocol=protocol,
+        fold=None,
+        D=int(D),
+        nn1_shape_accuracy=float(nn1_shape_accuracy),
+        mix_sil=float(mix_sil),
+        dgi=float(dgi),
+    )
 
 
 def dscan_record(
     *, protocol: str, D: Sequence[int], mean: Sequence[float], ci95: Sequence[float]
-) -> dict[str, Any]:
+) -> DscanRecord:
     """AFOP-ML's D-scan: validation accuracy (mean and 95 % CI half-width) per candidate D."""
     if not len(D) == len(mean) == len(ci95):
         raise ValueError(
             f"D, mean and ci95 must have one entry per candidate; got {len(D)}, "
             f"{len(mean)} and {len(ci95)}"
         )
-    return {
-        "record": "dscan",
-        "schema_version": SCHEMA_VERSION,
-        "protocol": protocol,
-        "fold": None,
-        "D": [int(d) for d in D],
-        "mean": [float(x) for x in mean],
-        "ci95": [float(x) for x in ci95],
-    }
+    return DscanRecord(
+        protocol=protocol,
+        fold=None,
+        D=[int(d) for d in D],
+        mean=[float(x) for x in mean],
+        ci95=[float(x) for x in ci95],
+    )
 
 
-def select(records: Iterable[dict], record: str, **match: Any) -> list[dict]:
+def meta_curve_record(
+    *,
+    protocol: str,
+    fold: int | str | None,
+    method: str,
+    curve: np.ndarray,
+    meta_gradient: str | None,
+) -> MetaCurveRecord:
+    """The record of a fitted method's ``meta_curve_``: ``(n, 2)`` rows of (outer step,
+    validation accuracy)."""
+    c = np.asarray(curve, dtype=np.float64)
+    if c.ndim != 2 or c.shape[1] != 2 or c.shape[0] < 1:
+        raise ValueError(f"meta_curve_ must have shape (n >= 1, 2); got {c.shape}")
+    return MetaCurveRecord(
+        protocol=protocol,
+        fold=_fold(fold),
+        method=method,
+        step=[int(s) for s in c[:, 0]],
+        accuracy=[float(a) for a in c[:, 1]],
+        meta_gradient=None if meta_gradient is None else str(meta_gradient),
+    )
+
+
+def from_dict(d: Mapping[str, Any]) -> Mapping[str, Any]:
+    """The typed record of a results.json object; an object of a kind this version does
+    not know stays a dict (readers skip what they do not know)."""
+    kind = RECORD_TYPES.get(d.get("record"))  # type: ignore[arg-type]
+    return dict(d) if kind is None else kind.from_dict(d)
+
+
+def select(records: Iterable[Mapping[str, Any]], record: str, **match: Any) -> list[Any]:
     """The records of kind ``record`` whose fields equal every ``match`` value, in order.
 
     ``select(records, "accuracy", protocol="cross-shape", fold=None, way=5)``; a field a
     record lacks never matches (so ``fold=None`` does not match a record without ``fold``).
+    Works on typed records and on the plain dicts of a results.json alike.
     """
     check_choice("record", record, RECORD_KINDS)
     return [
@@ -200,11 +367,22 @@ def _versioned(record: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
+def to_json(records: Iterable[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """The JSON objects of ``records`` (typed or dicts): ``schema_version`` set (another
+    version refused), non-finite floats as null."""
+    return [_clean(_versioned(r)) for r in records]
+
+
+def from_json(objects: Iterable[Mapping[str, Any]]) -> list[Mapping[str, Any]]:
+    """Typed records of results.json objects (:func:`from_dict` each)."""
+    return [from_dict(o) for o in objects]
+
+
 def write_results(path: str | Path, records: Sequence[Mapping[str, Any]]) -> Path:
     """Write records as a JSON list, atomically (a reader never sees half a file); every
     record gets ``schema_version`` = :data:`SCHEMA_VERSION`, non-finite floats become null."""
     path = Path(path)
-    payload = [_clean(_versioned(r)) for r in records]
+    payload = to_json(records)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp")
     tmp.write_text(json.dumps(payload, indent=1) + "\n")
@@ -212,8 +390,10 @@ def write_results(path: str | Path, records: Sequence[Mapping[str, Any]]) -> Pat
     return path
 
 
-def read_results(path: str | Path) -> list[dict]:
-    """Load and check a results.json written by :func:`write_results`."""
+def read_results(path: str | Path, *, typed: bool = False) -> list[Any]:
+    """Load and check a results.json written by :func:`write_results`: its plain JSON
+    objects, or with ``typed`` the record dataclasses (objects of unknown kinds stay
+    dicts)."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"results file {path} does not exist")
@@ -231,4 +411,9 @@ def read_results(path: str | Path) -> list[dict]:
                 f"{path}: record {i} has schema_version {version!r}; this version of "
                 f"tactile-synth reads schema_version {SCHEMA_VERSION} (see docs/results.md)"
             )
-    return data
+    if not typed:
+        return data
+    try:
+        return from_json(data)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{path}: {exc}") from None

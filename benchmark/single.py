@@ -6,15 +6,17 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from models.registry import METHOD_NAMES
-from shapes.validation import check_choice, check_int
+from shapes.validation import check_int
 from tactile_synth.threads import describe as describe_threads
 
 from . import figures
+from .budget import Budget
+from .engine import Features, check_methods
 from .guards import check_episodes, check_perturbation_pair
 from .outputs import OutputDir
-from .protocols import PROTOCOL_NAMES, protocol_runner
-from .protocols.generalisation import check_methods
-from .results import select, write_results
+from .protocols import get
+from .protocols.closed_set import Reference
+from .results import Record, select, write_results
 from .tables import table_one
 
 
@@ -29,8 +31,10 @@ def benchmark_protocol(
     seed: int = 0,
     progress: bool = True,
     overwrite: bool = False,
-) -> list[dict]:
-    """Run ``protocol`` (one of the four, or ``"all"``) and write results, report, figures.
+) -> list[Record]:
+    """Run ``protocol`` (a built-in or plug-in protocol name, ``module:Class``, or
+    ``"all"``) and write results, report and figures. A protocol read against the
+    closed-set reference curve also gets that curve.
 
     ``out`` is refused if it holds files this tool did not write, unless ``overwrite``;
     its whole output set is replaced at once when the run succeeds (see
@@ -38,22 +42,23 @@ def benchmark_protocol(
     """
     from synth import load_dataset
 
-    from .report import write_report
-    from .run import Budget, benchmark_all, dataset_summary
+    from .report import dataset_summary, write_report
+    from .run import benchmark_all, run_protocols
 
-    check_choice("protocol", protocol, (*PROTOCOL_NAMES, "all"))
+    chosen = None if protocol == "all" else get(protocol, arg="PROTOCOL")
     methods = check_methods(list(methods) if methods else list(METHOD_NAMES))
     check_episodes(episodes)
     check_int("seed", seed, minimum=0)
-    if protocol in ("perturbation", "all") and perturbed_path is None:
+    needs_perturbed = chosen is None or chosen.needs_perturbed
+    if needs_perturbed and perturbed_path is None:
         raise ValueError(f"--perturbed is required for the {protocol} protocol")
     data = load_dataset(data_path)
     perturbed = load_dataset(perturbed_path) if perturbed_path is not None else None
-    if perturbed is not None and protocol in ("perturbation", "all"):
+    if perturbed is not None and needs_perturbed:
         check_perturbation_pair(data, perturbed)
     inputs = (data_path, perturbed_path)
     with OutputDir(out, overwrite=overwrite, command=f"benchmark {protocol}", inputs=inputs) as out:
-        if protocol == "all":
+        if chosen is None:
             return benchmark_all(
                 data,
                 perturbed,
@@ -65,23 +70,28 @@ def benchmark_protocol(
                 data_path=data_path,
                 perturbed_path=perturbed_path,
             )
-        records = protocol_runner(protocol)(
+        records = run_protocols(
+            [chosen, Reference()] if chosen.uses_reference else [chosen],
             data,
-            perturbed=perturbed,
+            perturbed,
+            out,
             methods=methods,
-            episodes=episodes,
+            budget=Budget(default=episodes),
             seed=seed,
             progress=progress,
+            features=Features(),
         )
         write_results(out / "results.json", records)
         made: dict[str, str] = {}
-        if protocol == "closed-set":
+        if select(records, "accuracy", protocol="closed-set", condition=None):
             (out / "table1.md").write_text(table_one(records))
             made["table1"] = "table1.md"
-        else:
+        curves = {panel[0] for panel in figures.GENERALISATION_PANELS}
+        if any(r["protocol"] in curves for r in select(records, "accuracy")):
             figures.generalisation_curves(records, out / "generalisation.png")
             made["generalisation"] = "generalisation.png"
-        if select(records, "selection"):
+        bars = {protocol for protocol, _ in figures.SELECTION_ORDER}
+        if any(r["protocol"] in bars for r in select(records, "selection")):
             figures.selection_bars(records, out / "selection.png")
             made["selection"] = "selection.png"
         meta = {
@@ -92,7 +102,7 @@ def benchmark_protocol(
             "episodes": f"{episodes} per cell",
             "threads": describe_threads(),
             "figures": made,
-            "notes": [f"protocol {protocol} only"],
+            "notes": [f"protocol {chosen.name} only"],
         }
         write_report(records, out, meta)
         return records

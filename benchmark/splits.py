@@ -25,6 +25,9 @@ know whether *related* geometry transfers, not whether a wholly new family does.
 
 Cross-material: "leave-one-material-in": train on the 12 classes of one material, test on
 the 24 classes of the other two.
+
+Closed-set (and the perturbation protocol's fit): a seeded 50:50 split of every class
+(:func:`split_halves`).
 """
 
 from __future__ import annotations
@@ -49,6 +52,7 @@ __all__ = [
     "cross_shape_splits",
     "cross_shape_test_shapes",
     "parse_condition",
+    "split_halves",
 ]
 
 #: Test shapes of each cross-shape fold (see the module docstring for the rationale).
@@ -117,6 +121,27 @@ def cross_shape_splits(data: Dataset) -> list[Split]:
 def cross_material_splits(data: Dataset) -> list[Split]:
     """All 3 leave-one-material-in splits, in :data:`synth.MATERIAL_NAMES` order."""
     return [cross_material_split(data, m) for m in MATERIAL_NAMES]
+
+
+def split_halves(labels: np.ndarray, *, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Seeded 50:50 split per class: ``(train_idx, test_idx)`` sorted index arrays.
+
+    A class with an odd count gives its extra trial to the test half; a class with one
+    trial goes entirely to the test half.
+    """
+    y = np.asarray(labels)
+    if y.ndim != 1 or y.size == 0:
+        raise ValueError(f"labels must be a non-empty 1-D array; got shape {y.shape}")
+    check_int("seed", seed, minimum=0)
+    rng = np.random.default_rng(np.random.SeedSequence([seed, 0xC105ED]))
+    train: list[np.ndarray] = []
+    test: list[np.ndarray] = []
+    for c in np.unique(y):
+        idx = rng.permutation(np.flatnonzero(y == c))
+        half = idx.size // 2
+        train.append(idx[:half])
+        test.append(idx[half:])
+    return np.sort(np.concatenate(train)), np.sort(np.concatenate(test))
 
 
 def _check_folds() -> None:

@@ -133,6 +133,8 @@ class MAML(FewShotMethod):
     ``max_iterations`` stopped training first), ``feature_dim_`` (32)."""
 
     name = "MAML"
+    #: How the meta-gradient is computed (the benchmark writes it beside ``meta_curve_``).
+    meta_gradient = "first-order"
 
     def __init__(
         self,

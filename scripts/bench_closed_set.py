@@ -23,7 +23,7 @@ from pathlib import Path
 
 import torch
 
-from benchmark.protocols import closed_set
+from benchmark import protocols
 from models.features import extract
 from models.registry import METHOD_NAMES
 from synth import load_dataset
@@ -55,8 +55,13 @@ def main() -> None:
     rows = []
     for name in args.methods:
         t0 = time.perf_counter()
-        records = closed_set.run(
-            data, methods=(name,), episodes=args.episodes, seed=args.seed, features=feats
+        records = protocols.run(
+            "closed-set",
+            data,
+            methods=(name,),
+            episodes=args.episodes,
+            seed=args.seed,
+            features=feats,
         )
         wall = time.perf_counter() - t0
         pretrain = next(r["pretrain_s"] for r in records if r.get("pretrain_s") is not None)

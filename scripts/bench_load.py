@@ -55,13 +55,18 @@ SPIN_ENV = {"GOMP_SPINCOUNT": "300000", "OPENBLAS_THREAD_TIMEOUT": "28"}
 
 
 def _afop_table(data_path: str, episodes: int) -> None:
-    from benchmark.protocols import closed_set
+    from benchmark import protocols
     from models.features import extract
     from synth import load_dataset
 
     data = load_dataset(data_path)
-    closed_set.run(
-        data, methods=("AFOP-ML",), episodes=episodes, seed=0, features=extract(data.signals)
+    protocols.run(
+        "closed-set",
+        data,
+        methods=("AFOP-ML",),
+        episodes=episodes,
+        seed=0,
+        features=extract(data.signals),
     )
 
 

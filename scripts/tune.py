@@ -56,9 +56,9 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from benchmark.engine import child_seed  # noqa: E402
 from benchmark.evaluate import ci95  # noqa: E402
 from benchmark.protocols.closed_set import split_halves  # noqa: E402
-from benchmark.protocols.generalisation import child_seed  # noqa: E402
 from models.afo_mlp import AFOMLPML  # noqa: E402
 from models.afop import AFOPML  # noqa: E402
 from models.direct_prot import DirectProtML  # noqa: E402

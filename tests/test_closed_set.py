@@ -7,8 +7,9 @@ import json
 import numpy as np
 import pytest
 
+from benchmark import protocols
 from benchmark.protocols import closed_set
-from benchmark.results import read_results
+from benchmark.results import read_results, select
 from tests.synthetic_data import make_dataset
 
 
@@ -48,12 +49,12 @@ def test_split_halves_is_a_seeded_per_class_half_split():
 def test_accuracy_is_high_when_separable_and_chance_when_shuffled(shuffle, expect):
     noise = 0.1  # separable by construction: each class has its own frequencies
     data = make_dataset(trials_per_class=12, n_samples=400, noise=noise, shuffle_labels=shuffle)
-    records = closed_set.run(data, methods=["AFOP-ML"], episodes=100, seed=0)
-    acc = [r for r in records if r["record"] == "accuracy"]
+    records = protocols.run("closed-set", data, methods=["AFOP-ML"], episodes=100, seed=0)
+    acc = select(records, "accuracy")
     assert {r["protocol"] for r in records} == {"closed-set"}
     assert all(set(r) == FIELDS for r in acc)
     assert {(r["shot"], r["way"]) for r in acc} == set(closed_set.TABLE_ONE_COLUMNS)
-    assert any(r["record"] == "selection" for r in records)
+    assert select(records, "selection")
     for r in acc:
         assert r["episodes"] == 100 and 0 <= r["ci95"] < 0.1
         if expect == "high":  # ~1 at 5-way, a little lower among 36 look-alike classes
@@ -68,7 +69,7 @@ def test_columns_shrink_to_what_small_pools_hold():
     labels = np.repeat(np.arange(36), 2)  # 2 test trials per class: 1-shot, 1 query
     assert closed_set.columns_for(labels) == [(1, n, 1) for n in (5, 10, 12, 28, 36)]
     with pytest.raises(ValueError, match="too small"):
-        closed_set.run(make_dataset(trials_per_class=1, n_samples=300), episodes=5)
+        protocols.run("closed-set", make_dataset(trials_per_class=1, n_samples=300), episodes=5)
 
 
 def _class_signals(specs, synth, threads):

@@ -68,9 +68,9 @@ def _check_results(store: Path, out: Path, name: str) -> None:
     """The plug-in's records hold what the example itself scores on the closed-set
     protocol's own split and episodes, and the table and report list it."""
     import synth
+    from benchmark.engine import child_seed
     from benchmark.episodes import sample_episodes
     from benchmark.protocols.closed_set import PROTOCOL, split_halves
-    from benchmark.protocols.generalisation import child_seed
     from examples.nearest_mean import NearestClassMean
 
     records = read_results(out / "results.json")

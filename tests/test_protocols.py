@@ -8,9 +8,10 @@ from typing import ClassVar
 import numpy as np
 import pytest
 
-from benchmark.protocols import cross_material, cross_shape, generalisation, perturbation
-from benchmark.results import TIMING_FIELDS
-from benchmark.splits import CROSS_SHAPE_FOLDS, condition_name
+from benchmark import engine, protocols
+from benchmark.protocols import closed_set
+from benchmark.results import TIMING_FIELDS, select
+from benchmark.splits import CROSS_SHAPE_FOLDS, condition_name, split_halves
 from models.base import FewShotMethod
 from synth import CLASS_NAMES, MATERIAL_NAMES
 from tests.synthetic_data import make_dataset
@@ -66,7 +67,7 @@ def _row_keys(signals: np.ndarray) -> set[bytes]:
 @pytest.fixture
 def spy(monkeypatch):
     Spy.log = []
-    monkeypatch.setattr(generalisation, "make_method", lambda name, seed=0: Spy(seed=seed))
+    monkeypatch.setattr(engine, "make_method", lambda name, seed=0: Spy(seed=seed))
     return Spy
 
 
@@ -76,22 +77,21 @@ def data():
 
 
 def _check_schema(records):
-    for r in records:
-        if r["record"] == "accuracy":
-            assert set(r) == ACCURACY_FIELDS
-            assert 0.0 <= r["accuracy"] <= 1.0 and r["ci95"] >= 0.0
-            assert r["shot"] == 1 and 2 <= r["way"] <= 12
-        elif r["record"] == "selection":
-            assert set(r) == SELECTION_FIELDS
+    for r in select(records, "accuracy"):
+        assert set(r) == ACCURACY_FIELDS
+        assert 0.0 <= r["accuracy"] <= 1.0 and r["ci95"] >= 0.0
+        assert r["shot"] == 1 and 2 <= r["way"] <= 12
+    for r in select(records, "selection"):
+        assert set(r) == SELECTION_FIELDS
 
 
 def test_cross_shape_never_fits_on_test_shapes(data, spy):
-    records = cross_shape.run(
+    records = protocols.run(
+        "cross-shape",
         data,
         methods=["AFOP-ML"],
         episodes=20,
         seed=1,
-        reference=False,
         features=np.zeros((len(data), 386), np.float32),
     )
     fits = [e for e in spy.log if e["op"] == "fit"]
@@ -113,7 +113,7 @@ def test_cross_shape_never_fits_on_test_shapes(data, spy):
         for p in preds
     )
     _check_schema(records)
-    acc = [r for r in records if r["record"] == "accuracy"]
+    acc = select(records, "accuracy")
     # 3 folds + the across-fold summary, 11 ways each.
     assert len(acc) == 4 * 11
     assert {r["fold"] for r in acc} == {0, 1, 2, None}
@@ -126,12 +126,12 @@ def test_cross_shape_never_fits_on_test_shapes(data, spy):
 
 
 def test_cross_material_trains_on_one_material(data, spy):
-    records = cross_material.run(
+    records = protocols.run(
+        "cross-material",
         data,
         methods=["AFOP-ML"],
         episodes=10,
         seed=0,
-        reference=False,
         features=np.zeros((len(data), 386), np.float32),
     )
     fits = [e for e in spy.log if e["op"] == "fit"]
@@ -141,67 +141,65 @@ def test_cross_material_trains_on_one_material(data, spy):
         assert mats == {material}
         assert np.unique(fit["labels"]).size == 12
     _check_schema(records)
-    assert {r["fold"] for r in records if r["record"] == "accuracy"} == {*MATERIAL_NAMES, None}
+    assert {r["fold"] for r in select(records, "accuracy")} == {*MATERIAL_NAMES, None}
 
 
 def test_perturbation_fits_on_nominal_training_half(data, spy):
     pert = make_dataset(trials_per_class=3, n_samples=200, force_n=1.4, speed_mm_s=6.0, seed=5)
     pert2 = make_dataset(trials_per_class=3, n_samples=200, force_n=0.6, speed_mm_s=14.0, seed=6)
     both = _concat(pert, pert2)
-    records = perturbation.run(
+    records = protocols.run(
+        "perturbation",
         data,
         perturbed=both,
         methods=["AFOP-ML"],
         episodes=10,
         seed=0,
-        reference=False,
         features=np.zeros((len(data), 386), np.float32),
         perturbed_features=np.zeros((len(both), 386), np.float32),
     )
     fits = [e for e in spy.log if e["op"] == "fit"]
     assert len(fits) == 1  # one fit, tested on every condition
     # ... and it is the closed-set fit (same seed), so its D is the closed-set D.
-    assert fits[0]["seed"] == perturbation.closed_set_fit_seed(0)
-    assert perturbation.closed_set_fit_seed(0) == generalisation.child_seed(0, "closed-set", "fit")
-    train_idx, _test_idx = generalisation.closed_set_halves(data, 0)
+    assert fits[0]["seed"] == closed_set.fit_seed(0)
+    assert closed_set.fit_seed(0) == engine.child_seed(0, "closed-set", "fit")
+    train_idx, _test_idx = split_halves(data.label, seed=0)
     assert fits[0]["rows"] == _row_keys(data.signals[train_idx])
     assert not fits[0]["rows"] & _row_keys(both.signals)
-    conds = {r["condition"] for r in records if r["record"] == "accuracy"}
+    conds = {r["condition"] for r in select(records, "accuracy")}
     assert conds == {condition_name(1.4, 6.0), condition_name(0.6, 14.0), "pooled"}
     _check_schema(records)
 
 
 def test_unknown_method_and_missing_perturbed(data):
     with pytest.raises(ValueError, match="method must be one of"):
-        cross_shape.run(data, methods=["kNN"], episodes=5, seed=0)
+        protocols.run("cross-shape", data, methods=["kNN"], episodes=5, seed=0)
     with pytest.raises(ValueError, match="perturbed"):
-        perturbation.run(data, perturbed=None, methods=["AFOP-ML"], episodes=5, seed=0)
+        protocols.run("perturbation", data, perturbed=None, methods=["AFOP-ML"], episodes=5)
 
 
 def test_same_seed_same_records_with_real_afop(data):
-    a = cross_shape.run(data, methods=["AFOP-ML"], episodes=15, seed=3, reference=True)
-    b = cross_shape.run(data, methods=["AFOP-ML"], episodes=15, seed=3, reference=True)
+    def both():
+        kw = dict(methods=["AFOP-ML"], episodes=15, seed=3)
+        return protocols.run("cross-shape", data, **kw) + protocols.run(
+            closed_set.Reference(), data, **kw
+        )
+
+    a, b = both(), both()
 
     def strip(rs):
         return [{k: v for k, v in r.items() if k not in TIMING_FIELDS} for r in rs]
 
     assert strip(a) == strip(b)
     _check_schema(a)
-    sel = [r for r in a if r["record"] == "selection"]
+    sel = select(a, "selection")
     assert len(sel) == 3 and all(r["D"] >= 1 for r in sel)
     assert all(abs(r["pvdf_share"] + r["sg_share"] - 1) < 1e-9 for r in sel)
-    ref = [r for r in a if r["record"] == "accuracy" and r["condition"] == "reference"]
+    ref = select(a, "accuracy", condition="reference")
     assert [r["way"] for r in ref] == list(range(2, 13))
     assert all(r["protocol"] == "closed-set" for r in ref)
     # Separable synthetic classes: well above chance on unseen shapes at 5-way.
-    five = [
-        r
-        for r in a
-        if r["record"] == "accuracy"
-        and r["fold"] is None
-        and r["way"] == 5
-        and r["protocol"] == "cross-shape"
-    ]
+    five = select(a, "accuracy", fold=None, way=5, protocol="cross-shape")
     assert five[0]["accuracy"] > 0.5
 
 

@@ -217,7 +217,7 @@ def test_heatmap_and_report_show_every_method(tmp_path, monkeypatch):
 
 
 def test_run_draws_the_heatmap_of_every_method_that_ran(tmp_path, monkeypatch):
-    from benchmark import run as run_mod
+    from benchmark.interpret import Artefacts
 
     names = ["AFOP-ML", *[f"method-{i}" for i in range(5)]]
     rs = [dict(r, method=m) for m in names for r in fake_records() if r.get("method") == "AFOP-ML"]
@@ -227,6 +227,6 @@ def test_run_draws_the_heatmap_of_every_method_that_ran(tmp_path, monkeypatch):
     monkeypatch.setattr(
         figures, "perturbation_heatmap", lambda records, path, methods: asked.append(methods)
     )
-    art = run_mod.Artefacts(None, 8, np.zeros((2, 2)), np.zeros(2), np.zeros(2), {}, 10)
-    made = run_mod.draw_figures(rs, make_dataset(trials_per_class=1, n_samples=50), art, tmp_path)
+    art = Artefacts(None, 8, np.zeros((2, 2)), np.zeros(2), np.zeros(2), {}, 10)
+    made = figures.draw_figures(rs, make_dataset(trials_per_class=1, n_samples=50), art, tmp_path)
     assert "perturbation_heatmap" in made and asked == [names]

@@ -10,9 +10,11 @@ import pytest
 
 import synth
 import synth.generation as generation
+from benchmark.budget import Budget
+from benchmark.figures import FIGURE_FILES
 from benchmark.report import strip_timing
-from benchmark.results import TIMING_FIELDS
-from benchmark.run import FIGURE_FILES, Budget, benchmark_all, run
+from benchmark.results import TIMING_FIELDS, select
+from benchmark.run import benchmark_all, run
 from synth import Dataset
 from tests.synthetic_data import make_dataset
 
@@ -47,7 +49,7 @@ def test_benchmark_all_writes_everything_and_is_deterministic(datasets, tmp_path
     for out in (tmp_path / "a", tmp_path / "b"):
         assert (out / "results.json").is_file() and (out / "report.md").is_file()
         for name in FIGURE_FILES.values():
-            if name == FIGURE_FILES["dscan"] and not any(r["record"] == "dscan" for r in a):
+            if name == FIGURE_FILES["dscan"] and not select(a, "dscan"):
                 continue
             png = out / name
             assert png.is_file() and png.read_bytes()[:4] == b"\x89PNG", name
@@ -61,9 +63,9 @@ def test_benchmark_all_writes_everything_and_is_deterministic(datasets, tmp_path
     assert strip_timing(ra) == strip_timing(rb)
     kinds = {r["record"] for r in a}
     assert {"accuracy", "selection", "tsne"} <= kinds
-    protocols = {r["protocol"] for r in a if r["record"] == "accuracy"}
+    protocols = {r["protocol"] for r in select(a, "accuracy")}
     assert protocols == {"closed-set", "cross-shape", "cross-material", "perturbation"}
-    sel = {r["protocol"] for r in a if r["record"] == "selection"}
+    sel = {r["protocol"] for r in select(a, "selection")}
     assert sel == {"closed-set", "cross-shape", "cross-material", "perturbation"}
     # A different seed changes the numbers.
     c = benchmark_all(data, pert, tmp_path / "c", **{**kw, "seed": 5})
@@ -79,7 +81,7 @@ def test_benchmark_all_resumes_from_checkpoints(datasets, tmp_path, monkeypatch)
     def boom(*a, **k):
         raise AssertionError("protocol re-run although its checkpoint is valid")
 
-    monkeypatch.setattr(run_mod, "_call_protocol", boom)
+    monkeypatch.setattr(run_mod, "run_protocol", boom)
     again = benchmark_all(data, pert, tmp_path, **kw)
     assert comparable(again) == comparable(first)
 
@@ -117,9 +119,9 @@ class FakeSimulator:
 def test_run_quick_with_fake_simulator_is_resumable(tmp_path, monkeypatch):
     monkeypatch.setattr(generation, "validate_synth_config", lambda synth: None)
     monkeypatch.setattr(generation, "default_synth_config", lambda: {"fake": True})
-    import benchmark.run as run_mod
+    import benchmark.plan as plan
 
-    monkeypatch.setattr(run_mod, "QUICK_METHODS", ("AFOP-ML",))
+    monkeypatch.setattr(plan, "QUICK_METHODS", ("AFOP-ML",))
     sim = FakeSimulator()
     first = run(tmp_path, quick=True, progress=False, workers=1, simulator=sim)
     n_sim = sim.trials
@@ -168,7 +170,7 @@ def test_tactile_synth_run_quick_real(tmp_path):
         assert da.signals.tobytes() == db.signals.tobytes(), name
     tmp_path = tmp_path / "a"
     records = json.loads((tmp_path / "results.json").read_text())
-    assert {r["protocol"] for r in records if r["record"] == "accuracy"} == {
+    assert {r["protocol"] for r in select(records, "accuracy")} == {
         "closed-set",
         "cross-shape",
         "cross-material",

@@ -1,65 +1,27 @@
 """Cross-material generalisation (paper Section V-C, Fig. 5b), leave-one-material-in.
 
 For each material: fit on its 12 classes (all shapes), evaluate N-way-1-shot (N = 2..12)
-on the other two materials' 24 classes. Records per split (``fold`` = the training
-material) and across splits (``fold=None``), plus AFOP-ML's selection record per split.
+on the other two materials' 24 classes; ``fold`` is the training material. The engine
+adds records across splits (``fold=None``) and AFOP-ML's selection per split.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
-
-import numpy as np
-
 from synth import Dataset
 
+from ..budget import EpisodeBudget
+from ..engine import Protocol, Task
 from ..splits import cross_material_splits
-from .generalisation import Task, reference_records, run_split_protocol
-
-PROTOCOL = "cross-material"
+from .curves import split_tasks
 
 
-def tasks(data: Dataset) -> list[Task]:
-    """One task per training material: train on it, test on the other two."""
-    return [
-        Task(
-            fold=s.fold,
-            condition=None,
-            train_idx=np.flatnonzero(s.train),
-            test_idx=np.flatnonzero(s.test),
-        )
-        for s in cross_material_splits(data)
-    ]
+class CrossMaterial(Protocol):
+    name = "cross-material"
+    uses_reference = True
 
-
-def run(
-    data: Dataset,
-    *,
-    perturbed: Dataset | None = None,
-    methods: Sequence[str] = ("AFOP-ML",),
-    episodes: int = 500,
-    seed: int = 0,
-    progress: bool = False,
-    features: np.ndarray | None = None,
-    method_episodes: Mapping[str, int] | None = None,
-    reference: bool = True,
-) -> list[dict]:
-    """Records of the cross-material protocol (``perturbed`` is not used); arguments as
-    :func:`benchmark.protocols.cross_shape.run`."""
-    del perturbed
-    records = run_split_protocol(
-        PROTOCOL,
-        data,
-        tasks(data),
-        methods=methods,
-        episodes=episodes,
-        seed=seed,
-        progress=progress,
-        features=features,
-        method_episodes=method_episodes,
-    )
-    if reference:
-        records += reference_records(
-            data, episodes=episodes, seed=seed, progress=progress, features=features
-        )
-    return records
+    def tasks(
+        self, data: Dataset, perturbed: Dataset | None, *, seed: int, episodes: EpisodeBudget
+    ) -> list[Task]:
+        """One task per training material: fit on it, test on the other two."""
+        splits = cross_material_splits(data)
+        return split_tasks(self.name, data, splits, seed=seed, episodes=episodes)

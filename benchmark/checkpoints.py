@@ -1,0 +1,66 @@
+"""Resumable runs: each finished protocol's records in ``DIR/checkpoints/<protocol>.json``.
+
+A checkpoint is ``{"key": ..., "records": [...]}``: the key is a SHA-256 of everything
+that determines the records (dataset fingerprints, methods, episode budget, seed,
+protocol), so a re-run with the same inputs reuses them and any change recomputes.
+Records are written and read through :mod:`benchmark.results` (schema version checked,
+typed on load); a damaged or foreign file counts as no checkpoint.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from synth import Dataset
+
+from .results import from_json, to_json
+
+
+def fingerprint(data: Dataset) -> str:
+    """SHA-256 of a dataset's arrays (signals, labels, conditions, seeds): 16 hex chars."""
+    h = hashlib.sha256()
+    for arr in (data.signals, data.label, data.force_n, data.speed_mm_s, data.seed):
+        a = np.ascontiguousarray(arr)
+        h.update(str(a.dtype).encode() + str(a.shape).encode())
+        h.update(a.tobytes())
+    return h.hexdigest()[:16]
+
+
+def key(inputs: Mapping[str, Any]) -> str:
+    """The checkpoint key of ``inputs`` (a JSON-serialisable mapping)."""
+    return hashlib.sha256(json.dumps(dict(inputs), sort_keys=True).encode()).hexdigest()
+
+
+def _path(out: Path, protocol: str) -> Path:
+    # A plug-in protocol's name may be a path or module:Class spec.
+    return Path(out) / "checkpoints" / (re.sub(r"[^A-Za-z0-9._-]+", "_", protocol) + ".json")
+
+
+def load(out: Path, protocol: str, key: str) -> list | None:
+    """The typed records saved for ``protocol`` under ``key``, or None."""
+    path = _path(out, protocol)
+    if not path.is_file():
+        return None
+    try:
+        saved = json.loads(path.read_text())
+        if not isinstance(saved, dict) or saved.get("key") != key:
+            return None
+        return from_json(saved["records"])
+    except (json.JSONDecodeError, KeyError, TypeError, ValueError):
+        return None
+
+
+def save(out: Path, protocol: str, key: str, records: Sequence[Mapping[str, Any]]) -> None:
+    """Save ``records`` of ``protocol`` under ``key``, atomically."""
+    path = _path(out, protocol)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps({"key": key, "records": to_json(records)}))
+    tmp.replace(path)

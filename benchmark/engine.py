@@ -1,0 +1,448 @@
+"""The protocol engine: fit each method once per task, evaluate all the task's episodes.
+
+A protocol (:class:`Protocol`) is only a generator of :class:`Task` objects from the
+datasets. A task carries everything the engine needs: the trials methods are fitted on
+and the trials episodes are drawn from (:class:`Pool`), its grid of N-way K-shot cells
+(:class:`Cell`, each with its own episode seed), its episode budget, its fit seed and the
+labels its records carry (protocol, fold, condition). :func:`run_tasks` fits every method
+on a task's fit pool and adapts it to every cell's episodes in one batched
+``predict_episodes`` call (:func:`benchmark.evaluate.evaluate`, which also times single
+episodes when a cell asks for it); :func:`run_protocol` does this for one protocol and
+returns typed records (:mod:`benchmark.results`): accuracy per cell, across-fold pooled
+accuracy when the tasks have folds, and what each fit exposes (AFOP-ML's selection, a
+meta-learner's validation curve).
+
+The same episodes (same cell seeds) serve every method, and a method's fit seed is the
+task's, so results do not depend on the order or subset of methods requested.
+
+Cell rule: queries per class are :data:`N_QUERY`, fewer when the N-th most populous test
+class is small (:func:`n_query_for`); episodes are drawn from the test trials of the
+classes that can fill the cell (``shot + query`` trials); a cell no set of test classes
+can fill is skipped. Consecutive tasks with the same ``fit_key`` share one fit (the
+perturbation protocol fits once and tests on every force/speed condition).
+
+This module imports no protocol: protocols import it.
+"""
+
+from __future__ import annotations
+
+import time
+import zlib
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Hashable, Iterable, Sequence
+from dataclasses import dataclass, replace
+from typing import ClassVar, NamedTuple
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from models import registry
+from models.base import FewShotMethod
+from models.stats import ci95
+from shapes.validation import check_int
+from synth import Dataset
+
+from .budget import EpisodeBudget
+from .episodes import sample_episodes
+from .evaluate import evaluate
+from .results import (
+    AccuracyRecord,
+    Record,
+    accuracy_record,
+    meta_curve_record,
+    selection_record,
+)
+
+#: Queries per class per episode (upper bound; lowered when a test pool is too small).
+#: The paper does not state it; 5 keeps 36-way-5-shot episodes inside the 30 test trials
+#: per class of the paper preset.
+N_QUERY: int = 5
+
+
+def child_seed(seed: int, *keys: int | str) -> int:
+    """A 32-bit seed derived from ``seed`` and ``keys`` (strings hashed with CRC32)."""
+    words = [seed] + [k if isinstance(k, int) else zlib.crc32(str(k).encode()) for k in keys]
+    return int(np.random.SeedSequence(words).generate_state(1)[0])
+
+
+def check_methods(methods: Sequence[str]) -> tuple[str, ...]:
+    """Validate method names, plug-in names or ``module:Class`` specs (unknown names
+    raise with the valid list, see :func:`models.registry.check_methods`); keep order."""
+    return registry.check_methods(methods, arg="method")
+
+
+def make_method(name: str, seed: int = 0) -> FewShotMethod:
+    """A new, unfitted method ``name`` built with ``seed`` (:func:`models.registry.make_method`)."""
+    return registry.make_method(name, seed=seed)
+
+
+def n_query_for(labels: np.ndarray, n_way: int, k_shot: int = 1) -> int:
+    """Queries per class: :data:`N_QUERY`, fewer if the N-th most populous class of the
+    pool has fewer than ``k_shot + N_QUERY`` trials. 0 means N-way is impossible."""
+    counts = np.sort(np.unique(labels, return_counts=True)[1])[::-1]
+    if counts.size < n_way:
+        return 0
+    return int(max(0, min(N_QUERY, counts[n_way - 1] - k_shot)))
+
+
+class Features:
+    """The raw 386-feature pool of each dataset a run uses, extracted once on first use.
+
+    ``Features([(data, pool)])`` starts with precomputed pools (``(len(data), 386)``).
+    """
+
+    def __init__(self, known: Iterable[tuple[Dataset, np.ndarray]] = ()) -> None:
+        self._pools: dict[int, tuple[Dataset, np.ndarray]] = {}
+        for data, pool in known:
+            pool = np.asarray(pool)
+            if pool.ndim != 2 or pool.shape[0] != len(data):
+                raise ValueError(
+                    f"features must have shape ({len(data)}, n_features); got {pool.shape}"
+                )
+            self._pools[id(data)] = (data, pool)
+
+    def of(self, data: Dataset) -> np.ndarray:
+        """The feature pool ``(n, 386)`` of every trial of ``data``."""
+        hit = self._pools.get(id(data))
+        if hit is None:
+            from models.features import extract
+
+            hit = (data, extract(data.signals))
+            self._pools[id(data)] = hit  # the dataset is kept, so its id stays its own
+        return hit[1]
+
+
+@dataclass(frozen=True)
+class Pool:
+    """Trials ``index`` (int ``(n,)``) of dataset ``data``."""
+
+    data: Dataset
+    index: np.ndarray
+
+    def __post_init__(self) -> None:
+        idx = np.asarray(self.index)
+        if idx.ndim != 1 or idx.size == 0 or not np.issubdtype(idx.dtype, np.integer):
+            raise ValueError(f"a pool needs a non-empty 1-D integer index; got {idx.shape}")
+        object.__setattr__(self, "index", idx.astype(np.intp, copy=False))
+
+    @property
+    def labels(self) -> np.ndarray:
+        return self.data.label[self.index]
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One N-way K-shot point of a task's grid: ``seed`` draws its episodes, and the first
+    ``latency_episodes`` of them are also adapted one at a time (single-episode latency,
+    see :mod:`benchmark.evaluate`)."""
+
+    way: int
+    shot: int
+    seed: int
+    latency_episodes: int = 0
+
+
+@dataclass(frozen=True)
+class Task:
+    """One fit/test task of a protocol.
+
+    protocol, fold, condition: the names its records carry; fit / test: the trials the
+    methods are fitted on / the episodes are drawn from; grid: the cells evaluated;
+    episodes: episodes per cell (per method); fit_seed: the seed each method is built
+    with; fit_key: consecutive tasks with the same non-None key share the first one's fit;
+    methods: the methods of this task whatever the run requests (None: the requested
+    ones); fit_records: whether its fits give selection / meta-curve records.
+    """
+
+    protocol: str
+    fold: int | str | None
+    condition: str | None
+    fit: Pool
+    test: Pool
+    grid: tuple[Cell, ...]
+    episodes: EpisodeBudget
+    fit_seed: int
+    fit_key: Hashable | None = None
+    methods: tuple[str, ...] | None = None
+    fit_records: bool = True
+
+    @property
+    def name(self) -> str:
+        """Fold or condition, for progress bars."""
+        return str(self.fold) if self.fold is not None else str(self.condition or "")
+
+
+class Scored(NamedTuple):
+    """An accuracy record with the per-episode accuracies ``(E,)`` behind it."""
+
+    record: AccuracyRecord
+    accuracies: np.ndarray
+
+
+class TaskResults(NamedTuple):
+    """What :func:`run_tasks` returns: scored cells and the records of the fits."""
+
+    scored: list[Scored]
+    fits: list[Record]
+
+
+def feature_dim(method: FewShotMethod) -> int | None:
+    """Width of the embedding the method's prototypes live in, if it exposes one:
+    ``feature_dim_`` when set (AFO-MLP-ML: its 32-wide projection, Direct-Prot-ML: 386),
+    else ``D_`` (AFOP-ML: the top-D features)."""
+    for attr in ("feature_dim_", "D_"):
+        value = getattr(method, attr, None)
+        if value is not None:
+            return int(value)
+    return None
+
+
+def fit_records(task: Task, name: str, method: FewShotMethod) -> list[Record]:
+    """Records of what a fitted method exposes: AFOP-ML's selection (chosen D, PVDF/SG
+    shares of its top-D) and, for any method with ``meta_curve_``, its meta-training
+    validation curve (``meta_gradient`` as the method states it)."""
+    out: list[Record] = []
+    if name == "AFOP-ML" and getattr(method, "selected_", None) is not None:
+        from models.features import FEATURE_NAMES
+
+        from .interpret import sensor_shares
+
+        pvdf, sg = sensor_shares(method.selected_, FEATURE_NAMES)
+        out.append(
+            selection_record(
+                protocol=task.protocol,
+                fold=task.fold,
+                D=int(method.D_),
+                pvdf_share=pvdf,
+                sg_share=sg,
+            )
+        )
+    curve = getattr(method, "meta_curve_", None)
+    if curve is not None:
+        out.append(
+            meta_curve_record(
+                protocol=task.protocol,
+                fold=task.fold,
+                method=name,
+                curve=curve,
+                meta_gradient=getattr(method, "meta_gradient", None),
+            )
+        )
+    return out
+
+
+def _cell_rows(labels: np.ndarray, cell: Cell) -> tuple[int, np.ndarray | None]:
+    """Queries per class of ``cell`` on a test pool with ``labels`` (0: impossible) and
+    the rows of the classes that can fill it (None: every row)."""
+    q = n_query_for(labels, cell.way, cell.shot)
+    classes, counts = np.unique(labels, return_counts=True)
+    ok = classes[counts >= cell.shot + q]
+    if q < 1 or ok.size < cell.way:
+        return 0, None
+    if ok.size == classes.size:
+        return q, None
+    return q, np.flatnonzero(np.isin(labels, ok))
+
+
+def _fit_groups(tasks: Sequence[Task]) -> list[list[Task]]:
+    groups: list[list[Task]] = []
+    for task in tasks:
+        prev = groups[-1][0] if groups else None
+        if prev is not None and task.fit_key is not None and task.fit_key == prev.fit_key:
+            if task.fit_seed != prev.fit_seed or task.methods != prev.methods:
+                raise ValueError(
+                    f"tasks sharing fit_key {task.fit_key!r} differ in fit_seed or methods"
+                )
+            groups[-1].append(task)
+        else:
+            groups.append([task])
+    return groups
+
+
+def run_tasks(
+    tasks: Sequence[Task],
+    methods: Sequence[str],
+    *,
+    features: Features | None = None,
+    progress: bool = False,
+    on_fit: Callable[[Task, str, FewShotMethod], None] | None = None,
+) -> TaskResults:
+    """Fit every method once per task (or fit group) and evaluate every cell of its grid.
+
+    features: the feature pools (extracted on first use when not given); on_fit(task,
+    method name, fitted): called after each fit. Results come in task, method, cell order.
+    """
+    methods = check_methods(methods)
+    features = features or Features()
+    tasks = list(tasks)
+
+    def chosen(task: Task) -> tuple[str, ...]:
+        return methods if task.methods is None else check_methods(task.methods)
+
+    total = sum(len(t.grid) * len(chosen(t)) for t in tasks)
+    desc = tasks[0].protocol if tasks else ""
+    # disable=None: quiet when stderr is not a TTY.
+    bar = tqdm(total=total, desc=desc, disable=None if progress else True, leave=False)
+    scored: list[Scored] = []
+    fits: list[Record] = []
+    try:
+        for group in _fit_groups(tasks):
+            first = group[0]
+            fit = first.fit
+            fit_features = features.of(fit.data)[fit.index]
+            for name in chosen(first):
+                method = make_method(name, seed=first.fit_seed)
+                t0 = time.perf_counter()
+                method.fit(fit.data.signals[fit.index], fit.labels, features=fit_features)
+                pretrain_s = time.perf_counter() - t0
+                if first.fit_records:
+                    fits += fit_records(first, name, method)
+                if on_fit is not None:
+                    on_fit(first, name, method)
+                for task in group:
+                    scored += _evaluate_task(task, name, method, pretrain_s, features, bar)
+    finally:
+        bar.close()
+    return TaskResults(scored, fits)
+
+
+def _evaluate_task(
+    task: Task,
+    name: str,
+    method: FewShotMethod,
+    pretrain_s: float,
+    features: Features,
+    bar: tqdm,
+) -> list[Scored]:
+    test = task.test
+    signals = test.data.signals[test.index]
+    labels = test.labels
+    feats = features.of(test.data)[test.index]
+    n_ep = task.episodes.of(name)
+    out: list[Scored] = []
+    for cell in task.grid:
+        bar.set_postfix_str(f"{name} {task.name} {cell.shot}-shot {cell.way}-way")
+        q, rows = _cell_rows(labels, cell)
+        if q < 1:
+            bar.update(1)
+            continue
+        sig, lab, f = (
+            (signals, labels, feats) if rows is None else (signals[rows], labels[rows], feats[rows])
+        )
+        batch = sample_episodes(
+            lab, n_way=cell.way, k_shot=cell.shot, n_query=q, episodes=n_ep, seed=cell.seed
+        )
+        result = evaluate(method, sig, batch, features=f, latency_episodes=cell.latency_episodes)
+        rec = accuracy_record(
+            protocol=task.protocol,
+            fold=task.fold,
+            condition=task.condition,
+            method=name,
+            way=cell.way,
+            shot=cell.shot,
+            query=q,
+            result=result,
+            pretrain_s=pretrain_s,
+            feature_dim=feature_dim(method),
+        )
+        out.append(Scored(rec, np.asarray(result.accuracies)))
+        bar.update(1)
+    return out
+
+
+def pool_folds(scored: Iterable[Scored]) -> list[AccuracyRecord]:
+    """Across-fold summary records (``fold=None``), one per (protocol, condition, method,
+    way, shot): mean and ``ci95 = 1.96 * std / sqrt(E)`` over the per-episode accuracies of
+    all folds together. Timing fields are the mean over folds (latencies over the folds
+    that measured them), ``feature_dim`` the median, ``query`` the smallest."""
+    groups: dict[tuple, list[Scored]] = {}
+    for s in scored:
+        r = s.record
+        groups.setdefault((r.protocol, r.condition, r.method, r.way, r.shot), []).append(s)
+    out: list[AccuracyRecord] = []
+    for ss in groups.values():
+        rs = [s.record for s in ss]
+        acc = np.concatenate([s.accuracies for s in ss]).astype(np.float64)
+        out.append(
+            replace(
+                rs[0],
+                fold=None,
+                episodes=int(acc.size),
+                accuracy=float(acc.mean()),
+                ci95=ci95(acc),
+                query=int(min(r.query for r in rs)),
+                pretrain_s=float(np.mean([r.pretrain_s for r in rs])),
+                adapt_ms_per_episode=float(np.mean([r.adapt_ms_per_episode for r in rs])),
+                latency_ms_per_episode=_mean_or_none([r.latency_ms_per_episode for r in rs]),
+                latency_with_features_ms_per_episode=_mean_or_none(
+                    [r.latency_with_features_ms_per_episode for r in rs]
+                ),
+                latency_episodes=int(sum(r.latency_episodes for r in rs)),
+                feature_dim=_median_or_none([r.feature_dim for r in rs]),
+            )
+        )
+    return out
+
+
+def _mean_or_none(values: Sequence[float | None]) -> float | None:
+    v = [x for x in values if x is not None]
+    return float(np.mean(v)) if v else None
+
+
+def _median_or_none(values: Sequence[int | None]) -> int | None:
+    v = [x for x in values if x is not None]
+    return int(np.median(v)) if v else None
+
+
+class Protocol(ABC):
+    """An evaluation protocol: a name and a generator of tasks from the datasets.
+
+    Subclasses set ``name`` (the ``protocol`` field of their records and the name on the
+    command line) and implement :meth:`tasks`; ``needs_perturbed`` says that the
+    perturbation dataset is required, ``uses_reference`` that its curves are read
+    against the closed-set reference curve (``benchmark`` then runs that too).
+    """
+
+    name: ClassVar[str]
+    needs_perturbed: ClassVar[bool] = False
+    uses_reference: ClassVar[bool] = False
+
+    @abstractmethod
+    def tasks(
+        self, data: Dataset, perturbed: Dataset | None, *, seed: int, episodes: EpisodeBudget
+    ) -> Iterable[Task]:
+        """The protocol's tasks on nominal ``data`` (and ``perturbed``, when it needs it)."""
+
+
+def run_protocol(
+    protocol: Protocol,
+    data: Dataset,
+    perturbed: Dataset | None = None,
+    *,
+    methods: Sequence[str],
+    episodes: EpisodeBudget | int,
+    seed: int = 0,
+    progress: bool = False,
+    features: Features | None = None,
+    on_fit: Callable[[Task, str, FewShotMethod], None] | None = None,
+) -> list[Record]:
+    """All records of ``protocol``: accuracy per (task, method, cell), across-fold pooled
+    accuracy when its tasks have folds (:func:`pool_folds`), and the fits' records."""
+    if not isinstance(protocol, Protocol):
+        raise ValueError(f"protocol must be a Protocol instance; got {protocol!r}")
+    methods = check_methods(methods)
+    check_int("seed", seed, minimum=0)
+    if isinstance(episodes, int):
+        episodes = EpisodeBudget(check_int("episodes", episodes, minimum=1))
+    if protocol.needs_perturbed and perturbed is None:
+        raise ValueError(
+            f"the {protocol.name} protocol needs perturbed= (the perturbation dataset)"
+        )
+    tasks = list(protocol.tasks(data, perturbed, seed=seed, episodes=episodes))
+    if not tasks:
+        raise ValueError(f"the {protocol.name} protocol made no task from these datasets")
+    done = run_tasks(tasks, methods, features=features, progress=progress, on_fit=on_fit)
+    records: list[Record] = [s.record for s in done.scored]
+    if any(t.fold is not None for t in tasks):
+        records += pool_folds(s for s in done.scored if s.record.fold is not None)
+    return records + done.fits
