@@ -1,0 +1,86 @@
+"""The allocator thresholds (``tactile_synth.allocator``): freed blocks of tens of MB are
+reused without faulting their pages in again, and users keep their own settings."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+_VARS = (
+    "TACTILE_SYNTH_MALLOC",
+    "MALLOC_MMAP_THRESHOLD_",
+    "MALLOC_TRIM_THRESHOLD_",
+    "GLIBC_TUNABLES",
+)
+
+# Allocates, writes and frees a 48 MB block ten times (libc's malloc: numpy would ask for
+# huge pages, which hide the faults) and counts the page faults of the loop.
+PROBE = """
+import ctypes, ctypes.util, json, resource
+import tactile_synth
+libc = ctypes.CDLL(ctypes.util.find_library("c"))
+libc.malloc.restype = ctypes.c_void_p
+libc.free.argtypes = (ctypes.c_void_p,)
+before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+for _ in range(10):
+    block = libc.malloc(48_000_000)
+    ctypes.memset(block, 1, 48_000_000)
+    libc.free(block)
+faults = resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before
+print(json.dumps({"tuned": tactile_synth.allocator.TUNED, "faults": faults}))
+"""
+PAGES = 48_000_000 // 4096  # pages of one array
+
+
+def probe(**env: str) -> dict:
+    base = {k: v for k, v in os.environ.items() if k not in _VARS}
+    base["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), base.get("PYTHONPATH")]))
+    out = subprocess.run(
+        [sys.executable, "-c", PROBE],
+        env={**base, **env},
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def _is_glibc() -> bool:
+    try:
+        return (os.confstr("CS_GNU_LIBC_VERSION") or "").startswith("glibc")
+    except (AttributeError, ValueError, OSError):
+        return False
+
+
+glibc = pytest.mark.skipif(not _is_glibc(), reason="mallopt thresholds are glibc's")
+
+
+@glibc
+def test_freed_blocks_are_reused_without_faulting_again():
+    tuned = probe()
+    system = probe(TACTILE_SYNTH_MALLOC="system")
+    assert tuned["tuned"] and not system["tuned"]
+    # glibc's defaults map and unmap the block every time: ten arrays' worth of faults.
+    assert system["faults"] > 8 * PAGES
+    # Tuned: the first array faults its pages in, the others reuse them.
+    assert tuned["faults"] < 2 * PAGES
+
+
+@glibc
+@pytest.mark.parametrize(
+    "env",
+    [
+        {"MALLOC_TRIM_THRESHOLD_": "131072"},
+        {"MALLOC_MMAP_THRESHOLD_": "131072"},
+        {"GLIBC_TUNABLES": "glibc.malloc.trim_threshold=131072"},
+        {"TACTILE_SYNTH_MALLOC": "system"},
+    ],
+)
+def test_user_settings_are_left_alone(env):
+    assert probe(**env)["tuned"] is False
