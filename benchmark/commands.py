@@ -76,6 +76,13 @@ def _register_benchmark(subparsers: argparse._SubParsersAction) -> None:
         action="store_true",
         help="replace the contents of a non-empty DIR that tactile-synth did not write",
     )
+    p.add_argument(
+        "--workers",
+        type=int,
+        metavar="N",
+        help="processes the fits run in, each with its share of the CPUs (default: one per "
+        "usable CPU; 1: all in this process)",
+    )
     p.add_argument("--threads", type=int, metavar="N", help=THREADS_HELP)
     p.set_defaults(handler=_benchmark)
 
@@ -93,6 +100,7 @@ def _benchmark(args: argparse.Namespace) -> int:
         episodes=args.episodes,
         seed=args.seed,
         overwrite=args.overwrite,
+        workers=args.workers,
     )
     print(f"wrote {args.out}/results.json and {args.out}/report.md")
     return 0
@@ -114,7 +122,11 @@ def _register_run(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--quick", action="store_true", help="small datasets, fewer episodes (<5 min)")
     p.add_argument("--seed", type=int, default=0, help="seed of data and episodes (default 0)")
     p.add_argument(
-        "--workers", type=int, help="generation processes (default 1; N > 1 share the CPUs)"
+        "--workers",
+        type=int,
+        metavar="N",
+        help="processes for generation and for the benchmark's fits, sharing the CPUs "
+        "(default: generation in this process, fits in one process per usable CPU)",
     )
     p.add_argument(
         "--methods",

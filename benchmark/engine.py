@@ -259,6 +259,189 @@ def _fit_groups(tasks: Sequence[Task]) -> list[list[Task]]:
     return groups
 
 
+@dataclass(frozen=True)
+class Share:
+    """The tasks of task set ``set_index`` that one fit serves."""
+
+    set_index: int
+    tasks: tuple[Task, ...]
+
+
+@dataclass(frozen=True)
+class FitGroup:
+    """Tasks, of one or several task sets, that one fit of each of ``methods`` serves."""
+
+    shares: tuple[Share, ...]
+    methods: tuple[str, ...]
+
+    @property
+    def first(self) -> Task:
+        return self.shares[0].tasks[0]
+
+    @property
+    def cells(self) -> int:
+        return sum(len(t.grid) for share in self.shares for t in share.tasks)
+
+
+def _same_fit(a: Task, b: Task) -> bool:
+    """Whether tasks of different sets may share a fit: the same non-None ``fit_key`` and
+    fit seed, and the very same fit trials."""
+    return (
+        a.fit_key is not None
+        and a.fit_key == b.fit_key
+        and a.fit_seed == b.fit_seed
+        and a.fit.data is b.fit.data
+        and np.array_equal(a.fit.index, b.fit.index)
+    )
+
+
+def plan_fits(
+    task_sets: Sequence[Sequence[Task]], methods: Sequence[str]
+) -> tuple[list[FitGroup], list[list[int]]]:
+    """The fits that ``task_sets`` need: ``(groups, order)``, where ``order[i]`` lists the
+    groups serving set ``i`` in that set's own order.
+
+    Within a set, consecutive tasks with the same ``fit_key`` share a fit; across sets,
+    groups with the same ``fit_key``, fit seed, fit trials and methods share one too (the
+    perturbation protocol tests the closed-set fit on every force/speed condition).
+    """
+    methods = check_methods(methods)
+    groups: list[FitGroup] = []
+    order: list[list[int]] = []
+    for i, tasks in enumerate(task_sets):
+        order.append([])
+        for members in _fit_groups(tasks):
+            head = members[0]
+            chosen = methods if head.methods is None else check_methods(head.methods)
+            share = Share(i, tuple(members))
+            for g, group in enumerate(groups):
+                if group.methods == chosen and _same_fit(group.first, head):
+                    groups[g] = replace(group, shares=(*group.shares, share))
+                    order[i].append(g)
+                    break
+            else:
+                groups.append(FitGroup((share,), chosen))
+                order[i].append(len(groups) - 1)
+    return groups, order
+
+
+class FitResult(NamedTuple):
+    """One method's fit on a :class:`FitGroup`: the results of each of its shares, in
+    the group's order."""
+
+    shares: list[TaskResults]
+
+
+def run_fit(
+    group: FitGroup,
+    name: str,
+    features: Features,
+    *,
+    bar: tqdm | None = None,
+    on_fit: Callable[[Task, str, FewShotMethod], None] | None = None,
+) -> FitResult:
+    """Fit ``name`` once on the group's fit pool and evaluate every cell of its tasks."""
+    first = group.first
+    fit = first.fit
+    method = make_method(name, seed=first.fit_seed)
+    t0 = time.perf_counter()
+    method.fit(fit.data.signals[fit.index], fit.labels, features=features.of(fit.data)[fit.index])
+    pretrain_s = time.perf_counter() - t0
+    if on_fit is not None:
+        on_fit(first, name, method)
+    out = []
+    for share in group.shares:
+        head = share.tasks[0]
+        fits = fit_records(head, name, method) if head.fit_records else []
+        scored: list[Scored] = []
+        for task in share.tasks:
+            scored += _evaluate_task(task, name, method, pretrain_s, features, bar)
+        out.append(TaskResults(scored, fits))
+    return FitResult(out)
+
+
+def run_task_sets(
+    task_sets: Sequence[Sequence[Task]],
+    methods: Sequence[str],
+    *,
+    features: Features | None = None,
+    progress: bool = False,
+    on_fit: Callable[[Task, str, FewShotMethod], None] | None = None,
+    workers: int = 1,
+    threads: int | None = None,
+    on_done: Callable[[int, TaskResults], None] | None = None,
+) -> list[TaskResults]:
+    """Run several sets of tasks (a protocol's each) through one queue of fits: every
+    method fitted once per fit group (:func:`plan_fits`), every cell of every task
+    evaluated. Returns each set's results in task-set order, and calls ``on_done(i,
+    results)`` as soon as set ``i`` is complete (a run checkpoints it there).
+
+    workers: processes the fits run in (1: this process, in order; more: see
+    :mod:`benchmark.workers`, each with ``threads`` threads, by default its share of the
+    CPUs). A set's results, and their order (task, method, cell), do not depend on
+    ``workers``; their bits depend on the threads each fit ran with.
+    on_fit(task, method name, fitted): called after each fit (one process only).
+    """
+    check_int("workers", workers, minimum=1)
+    features = features or Features()
+    groups, order = plan_fits(task_sets, methods)
+    jobs = [(g, name) for g, group in enumerate(groups) for name in group.methods]
+    left = [sum(len(groups[g].methods) for g in set_order) for set_order in order]
+    done: dict[tuple[int, str], FitResult] = {}
+    results: list[TaskResults | None] = [None] * len(task_sets)
+
+    def assemble(i: int) -> TaskResults:
+        scored: list[Scored] = []
+        fits: list[Record] = []
+        for g in order[i]:
+            group = groups[g]
+            at = next(k for k, share in enumerate(group.shares) if share.set_index == i)
+            for name in group.methods:
+                part = done[(g, name)].shares[at]
+                scored += part.scored
+                fits += part.fits
+        return TaskResults(scored, fits)
+
+    def finished(job: tuple[int, str], result: FitResult) -> None:
+        done[job] = result
+        for share in groups[job[0]].shares:
+            i = share.set_index
+            left[i] -= 1
+            if left[i] == 0:
+                results[i] = assemble(i)
+                if on_done is not None:
+                    on_done(i, results[i])
+
+    for i, n in enumerate(left):  # a set without tasks is done at once
+        if n == 0:
+            results[i] = TaskResults([], [])
+            if on_done is not None:
+                on_done(i, results[i])
+
+    total = sum(groups[g].cells for g, _ in jobs)
+    desc = task_sets[0][0].protocol if len(task_sets) == 1 and task_sets[0] else "benchmark"
+    # disable=None: quiet when stderr is not a TTY.
+    bar = tqdm(total=total, desc=desc, disable=None if progress else True, leave=False)
+    try:
+        if workers == 1 or len(jobs) <= 1:
+            for g, name in jobs:
+                finished((g, name), run_fit(groups[g], name, features, bar=bar, on_fit=on_fit))
+        else:
+            if on_fit is not None:
+                raise ValueError("on_fit needs the fits in this process: use workers=1")
+            from .workers import run_fits
+
+            for (g, name), result in run_fits(
+                groups, jobs, features, workers=workers, threads=threads
+            ):
+                finished((g, name), result)
+                bar.set_postfix_str(f"{name} {groups[g].first.protocol} {groups[g].first.name}")
+                bar.update(groups[g].cells)
+    finally:
+        bar.close()
+    return results  # type: ignore[return-value]  # every set completed above
+
+
 def run_tasks(
     tasks: Sequence[Task],
     methods: Sequence[str],
@@ -266,44 +449,24 @@ def run_tasks(
     features: Features | None = None,
     progress: bool = False,
     on_fit: Callable[[Task, str, FewShotMethod], None] | None = None,
+    workers: int = 1,
+    threads: int | None = None,
 ) -> TaskResults:
-    """Fit every method once per task (or fit group) and evaluate every cell of its grid.
+    """Fit every method once per task (or fit group) and evaluate every cell of its grid
+    (:func:`run_task_sets` for one set of tasks).
 
     features: the feature pools (extracted on first use when not given); on_fit(task,
     method name, fitted): called after each fit. Results come in task, method, cell order.
     """
-    methods = check_methods(methods)
-    features = features or Features()
-    tasks = list(tasks)
-
-    def chosen(task: Task) -> tuple[str, ...]:
-        return methods if task.methods is None else check_methods(task.methods)
-
-    total = sum(len(t.grid) * len(chosen(t)) for t in tasks)
-    desc = tasks[0].protocol if tasks else ""
-    # disable=None: quiet when stderr is not a TTY.
-    bar = tqdm(total=total, desc=desc, disable=None if progress else True, leave=False)
-    scored: list[Scored] = []
-    fits: list[Record] = []
-    try:
-        for group in _fit_groups(tasks):
-            first = group[0]
-            fit = first.fit
-            fit_features = features.of(fit.data)[fit.index]
-            for name in chosen(first):
-                method = make_method(name, seed=first.fit_seed)
-                t0 = time.perf_counter()
-                method.fit(fit.data.signals[fit.index], fit.labels, features=fit_features)
-                pretrain_s = time.perf_counter() - t0
-                if first.fit_records:
-                    fits += fit_records(first, name, method)
-                if on_fit is not None:
-                    on_fit(first, name, method)
-                for task in group:
-                    scored += _evaluate_task(task, name, method, pretrain_s, features, bar)
-    finally:
-        bar.close()
-    return TaskResults(scored, fits)
+    return run_task_sets(
+        [tasks],
+        methods,
+        features=features,
+        progress=progress,
+        on_fit=on_fit,
+        workers=workers,
+        threads=threads,
+    )[0]
 
 
 def _evaluate_task(
@@ -312,7 +475,7 @@ def _evaluate_task(
     method: FewShotMethod,
     pretrain_s: float,
     features: Features,
-    bar: tqdm,
+    bar: tqdm | None,
 ) -> list[Scored]:
     test = task.test
     signals = test.data.signals[test.index]
@@ -321,10 +484,12 @@ def _evaluate_task(
     n_ep = task.episodes.of(name)
     out: list[Scored] = []
     for cell in task.grid:
-        bar.set_postfix_str(f"{name} {task.name} {cell.shot}-shot {cell.way}-way")
+        if bar is not None:
+            bar.set_postfix_str(f"{name} {task.name} {cell.shot}-shot {cell.way}-way")
         q, rows = _cell_rows(labels, cell)
         if q < 1:
-            bar.update(1)
+            if bar is not None:
+                bar.update(1)
             continue
         sig, lab, f = (
             (signals, labels, feats) if rows is None else (signals[rows], labels[rows], feats[rows])
@@ -346,7 +511,8 @@ def _evaluate_task(
             feature_dim=feature_dim(method),
         )
         out.append(Scored(rec, np.asarray(result.accuracies)))
-        bar.update(1)
+        if bar is not None:
+            bar.update(1)
     return out
 
 
@@ -414,6 +580,39 @@ class Protocol(ABC):
         """The protocol's tasks on nominal ``data`` (and ``perturbed``, when it needs it)."""
 
 
+def protocol_tasks(
+    protocol: Protocol,
+    data: Dataset,
+    perturbed: Dataset | None = None,
+    *,
+    episodes: EpisodeBudget | int,
+    seed: int = 0,
+) -> list[Task]:
+    """``protocol``'s tasks on the datasets, its arguments checked."""
+    if not isinstance(protocol, Protocol):
+        raise ValueError(f"protocol must be a Protocol instance; got {protocol!r}")
+    check_int("seed", seed, minimum=0)
+    if isinstance(episodes, int):
+        episodes = EpisodeBudget(check_int("episodes", episodes, minimum=1))
+    if protocol.needs_perturbed and perturbed is None:
+        raise ValueError(
+            f"the {protocol.name} protocol needs perturbed= (the perturbation dataset)"
+        )
+    tasks = list(protocol.tasks(data, perturbed, seed=seed, episodes=episodes))
+    if not tasks:
+        raise ValueError(f"the {protocol.name} protocol made no task from these datasets")
+    return tasks
+
+
+def protocol_records(tasks: Sequence[Task], done: TaskResults) -> list[Record]:
+    """The records of a protocol's tasks: accuracy per (task, method, cell), across-fold
+    pooled accuracy when the tasks have folds (:func:`pool_folds`), and the fits' records."""
+    records: list[Record] = [s.record for s in done.scored]
+    if any(t.fold is not None for t in tasks):
+        records += pool_folds(s for s in done.scored if s.record.fold is not None)
+    return records + done.fits
+
+
 def run_protocol(
     protocol: Protocol,
     data: Dataset,
@@ -425,24 +624,20 @@ def run_protocol(
     progress: bool = False,
     features: Features | None = None,
     on_fit: Callable[[Task, str, FewShotMethod], None] | None = None,
+    workers: int = 1,
+    threads: int | None = None,
 ) -> list[Record]:
-    """All records of ``protocol``: accuracy per (task, method, cell), across-fold pooled
-    accuracy when its tasks have folds (:func:`pool_folds`), and the fits' records."""
-    if not isinstance(protocol, Protocol):
-        raise ValueError(f"protocol must be a Protocol instance; got {protocol!r}")
+    """All records of ``protocol`` (:func:`protocol_records`); ``workers`` and
+    ``threads`` as in :func:`run_task_sets`."""
     methods = check_methods(methods)
-    check_int("seed", seed, minimum=0)
-    if isinstance(episodes, int):
-        episodes = EpisodeBudget(check_int("episodes", episodes, minimum=1))
-    if protocol.needs_perturbed and perturbed is None:
-        raise ValueError(
-            f"the {protocol.name} protocol needs perturbed= (the perturbation dataset)"
-        )
-    tasks = list(protocol.tasks(data, perturbed, seed=seed, episodes=episodes))
-    if not tasks:
-        raise ValueError(f"the {protocol.name} protocol made no task from these datasets")
-    done = run_tasks(tasks, methods, features=features, progress=progress, on_fit=on_fit)
-    records: list[Record] = [s.record for s in done.scored]
-    if any(t.fold is not None for t in tasks):
-        records += pool_folds(s for s in done.scored if s.record.fold is not None)
-    return records + done.fits
+    tasks = protocol_tasks(protocol, data, perturbed, episodes=episodes, seed=seed)
+    done = run_tasks(
+        tasks,
+        methods,
+        features=features,
+        progress=progress,
+        on_fit=on_fit,
+        workers=workers,
+        threads=threads,
+    )
+    return protocol_records(tasks, done)

@@ -21,10 +21,20 @@ from models.registry import METHOD_NAMES
 from shapes.validation import check_int
 from synth import Dataset
 from tactile_synth.threads import describe as describe_threads
+from tactile_synth.threads import settings
 
 from . import checkpoints
 from .budget import Budget
-from .engine import Features, Protocol, check_methods, run_protocol
+from .engine import (
+    Features,
+    Protocol,
+    Task,
+    TaskResults,
+    check_methods,
+    protocol_records,
+    protocol_tasks,
+    run_task_sets,
+)
 from .figures import draw_figures, figure_notes
 from .plan import log, prepare_datasets, run_plan
 from .protocols import PROTOCOL_NAMES, get
@@ -54,17 +64,21 @@ def run_protocols(
     seed: int,
     progress: bool,
     features: Features,
+    workers: int = 1,
 ) -> list[Record]:
     """Every protocol's records, each from its checkpoint in ``out`` when the inputs are
-    unchanged, else run by the engine and checkpointed at once."""
+    unchanged, else run by the engine and checkpointed as soon as it completes. The
+    protocols still to run share one queue of fits (:func:`benchmark.engine.run_task_sets`)
+    in ``workers`` processes."""
     base = {
         "data": checkpoints.fingerprint(data),
         "perturbed": None if perturbed is None else checkpoints.fingerprint(perturbed),
         "methods": list(methods),
         "seed": seed,
     }
-    records: list[Record] = []
-    for protocol in protocols:
+    found: dict[int, list[Record]] = {}
+    pending: list[tuple[int, Protocol, str, list[Task]]] = []
+    for i, protocol in enumerate(protocols):
         per_method = budget.for_protocol(protocol.name)
         key = checkpoints.key(
             {
@@ -77,22 +91,48 @@ def run_protocols(
         cached = checkpoints.load(out, protocol.name, key)
         if cached is not None:
             log(progress, f"{protocol.name}: reusing checkpoint")
-            records += cached
+            found[i] = cached
             continue
-        log(progress, f"{protocol.name}: running {', '.join(methods)}")
-        recs = run_protocol(
-            protocol,
-            data,
-            perturbed,
-            methods=methods,
-            episodes=budget.for_task(protocol.name),
-            seed=seed,
-            progress=progress,
-            features=features,
+        episodes = budget.for_task(protocol.name)
+        pending.append(
+            (
+                i,
+                protocol,
+                key,
+                protocol_tasks(protocol, data, perturbed, episodes=episodes, seed=seed),
+            )
         )
-        checkpoints.save(out, protocol.name, key, recs)
-        records += recs
-    return records
+    if pending:
+        start = time.perf_counter()
+        where = f" in {workers} worker processes" if workers > 1 else ""
+        names = ", ".join(protocol.name for _, protocol, _, _ in pending)
+        log(progress, f"{names}: fitting and evaluating {', '.join(methods)}{where}")
+
+        def done(j: int, results: TaskResults) -> None:
+            i, protocol, key, tasks = pending[j]
+            found[i] = protocol_records(tasks, results)
+            checkpoints.save(out, protocol.name, key, found[i])
+            log(progress, f"{protocol.name}: done ({time.perf_counter() - start:.0f} s)")
+
+        run_task_sets(
+            [tasks for _, _, _, tasks in pending],
+            methods,
+            features=features,
+            progress=progress,
+            workers=workers,
+            on_done=done,
+        )
+    return [r for i in range(len(protocols)) for r in found[i]]
+
+
+def default_workers() -> int:
+    """Processes a benchmark's fits run in by default: one per CPU this process may use."""
+    return settings().cpus
+
+
+def workers_note(workers: int) -> str:
+    """What the report adds to the thread line when fits ran in worker processes."""
+    return f"; fits in {workers} worker processes" if workers > 1 else ""
 
 
 def benchmark_all(
@@ -106,11 +146,15 @@ def benchmark_all(
     progress: bool = True,
     data_path: str | Path | None = None,
     perturbed_path: str | Path | None = None,
+    workers: int | None = None,
 ) -> list[Record]:
     """All four protocols + interpretability on ``data`` (nominal) and ``perturbed``;
-    writes ``out/results.json``, ``out/report.md`` and the PNG figures. Returns records."""
+    writes ``out/results.json``, ``out/report.md`` and the PNG figures. Returns records.
+
+    workers: processes the protocols' fits run in (default :func:`default_workers`)."""
     from .interpret import analyse
 
+    workers = default_workers() if workers is None else check_int("workers", workers, minimum=1)
     methods = check_methods(methods)
     if "AFOP-ML" not in methods:
         raise ValueError("methods must include AFOP-ML (the report and Fig. 6/7 are about it)")
@@ -134,6 +178,7 @@ def benchmark_all(
         seed=seed,
         progress=progress,
         features=features,
+        workers=workers,
     )
     log(progress, "closed-set reference curve, D-scan and t-SNE (AFOP-ML)")
     extra, artefacts = analyse(
@@ -148,7 +193,7 @@ def benchmark_all(
         "perturbed": dataset_summary(perturbed, perturbed_path),
         "methods": list(methods),
         "episodes": budget.describe(methods, PROTOCOL_NAMES),
-        "threads": describe_threads(),
+        "threads": describe_threads(workers) + workers_note(workers),
         "cross_shape_folds": [list(f) for f in CROSS_SHAPE_FOLDS],
         "figures": draw_figures(records, data, artefacts, out),
         "figure_notes": figure_notes(records, artefacts, seed),
@@ -181,6 +226,9 @@ def run(
     ``tactile-synth import``) used instead of generating the nominal / perturbation
     dataset; the one not given is generated as usual.
 
+    ``workers``: processes for generation and for the benchmark's fits (default: the
+    generator's own default, and :func:`default_workers` for the fits).
+
     ``out`` is refused if it holds files this tool did not write, unless ``overwrite``;
     its output set is replaced at once at the end, its datasets and checkpoints kept
     (see :mod:`benchmark.outputs`). ``simulator`` replaces the MuJoCo simulator (tests
@@ -192,6 +240,8 @@ def run(
     from .outputs import OutputDir
 
     check_int("seed", seed, minimum=0)
+    if workers is not None:
+        check_int("workers", workers, minimum=1)
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise FileExistsError(f"--out {out} is a file; choose a directory")
@@ -219,4 +269,5 @@ def run(
             progress=progress,
             data_path=paths["nominal"],
             perturbed_path=paths["perturbation"],
+            workers=workers,
         )

@@ -31,10 +31,14 @@ def benchmark_protocol(
     seed: int = 0,
     progress: bool = True,
     overwrite: bool = False,
+    workers: int | None = None,
 ) -> list[Record]:
     """Run ``protocol`` (a built-in or plug-in protocol name, ``module:Class``, or
     ``"all"``) and write results, report and figures. A protocol read against the
     closed-set reference curve also gets that curve.
+
+    ``workers``: processes the fits run in (default: one per usable CPU, see
+    :func:`benchmark.run.default_workers`).
 
     ``out`` is refused if it holds files this tool did not write, unless ``overwrite``;
     its whole output set is replaced at once when the run succeeds (see
@@ -43,12 +47,13 @@ def benchmark_protocol(
     from synth import load_dataset
 
     from .report import dataset_summary, write_report
-    from .run import benchmark_all, run_protocols
+    from .run import workers_note, benchmark_all, default_workers, run_protocols
 
     chosen = None if protocol == "all" else get(protocol, arg="PROTOCOL")
     methods = check_methods(list(methods) if methods else list(METHOD_NAMES))
     check_episodes(episodes)
     check_int("seed", seed, minimum=0)
+    workers = default_workers() if workers is None else check_int("workers", workers, minimum=1)
     needs_perturbed = chosen is None or chosen.needs_perturbed
     if needs_perturbed and perturbed_path is None:
         raise ValueError(f"--perturbed is required for the {protocol} protocol")
@@ -69,6 +74,7 @@ def benchmark_protocol(
                 progress=progress,
                 data_path=data_path,
                 perturbed_path=perturbed_path,
+                workers=workers,
             )
         records = run_protocols(
             [chosen, Reference()] if chosen.uses_reference else [chosen],
@@ -80,6 +86,7 @@ def benchmark_protocol(
             seed=seed,
             progress=progress,
             features=Features(),
+            workers=workers,
         )
         write_results(out / "results.json", records)
         made: dict[str, str] = {}
@@ -100,7 +107,7 @@ def benchmark_protocol(
             "perturbed": None if perturbed is None else dataset_summary(perturbed, perturbed_path),
             "methods": list(methods),
             "episodes": f"{episodes} per cell",
-            "threads": describe_threads(),
+            "threads": describe_threads(workers) + workers_note(workers),
             "figures": made,
             "notes": [f"protocol {chosen.name} only"],
         }

@@ -314,9 +314,14 @@ def thread_settings() -> dict[str, Any]:
     return asdict(settings())
 
 
-def describe() -> str:
-    """One line for a report: every pool's thread count and how it was chosen."""
+def describe(workers: int | None = None) -> str:
+    """One line for a report: every pool's thread count and how it was chosen; with
+    ``workers``, those of each of the ``workers`` processes this process starts (see
+    :func:`worker_threads`)."""
     s = settings()
+    if workers is not None and workers > 1:
+        explicit = s.threads if s.source == "--threads" else None
+        s = replace(_resolve(explicit, workers), torch_inter_op=s.torch_inter_op)
     if s.source == "auto":
         how = f"{s.cpus} usable CPUs / {s.workers} worker{'s' * (s.workers > 1)}"
     else:

@@ -81,7 +81,7 @@ def test_benchmark_all_resumes_from_checkpoints(datasets, tmp_path, monkeypatch)
     def boom(*a, **k):
         raise AssertionError("protocol re-run although its checkpoint is valid")
 
-    monkeypatch.setattr(run_mod, "run_protocol", boom)
+    monkeypatch.setattr(run_mod, "run_task_sets", boom)
     again = benchmark_all(data, pert, tmp_path, **kw)
     assert comparable(again) == comparable(first)
 

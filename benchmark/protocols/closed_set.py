@@ -31,6 +31,11 @@ PROTOCOL = "closed-set"
 LATENCY_EPISODES = 10
 
 
+#: The fit key of the closed-set training half: the perturbation protocol's tasks carry it
+#: too, so a run fits each method once on that half and tests both protocols on the fit.
+FIT_KEY = "closed-set training half"
+
+
 def fit_seed(seed: int) -> int:
     """The seed of every closed-set fit (the perturbation protocol reuses the fit)."""
     return child_seed(seed, PROTOCOL, "fit")
@@ -79,6 +84,7 @@ class ClosedSet(Protocol):
                 grid=grid,
                 episodes=episodes,
                 fit_seed=fit_seed(seed),
+                fit_key=FIT_KEY,
             )
         ]
 

@@ -24,7 +24,7 @@ from ..budget import EpisodeBudget
 from ..engine import Pool, Protocol, Task
 from ..guards import check_perturbation_pair
 from ..splits import condition_name, split_halves
-from .closed_set import fit_seed
+from .closed_set import FIT_KEY, fit_seed
 from .curves import curve_grid
 
 PROTOCOL = "perturbation"
@@ -70,7 +70,7 @@ class Perturbation(Protocol):
                 grid=curve_grid(seed, PROTOCOL, i),
                 episodes=episodes,
                 fit_seed=fit_seed(seed),
-                fit_key="closed-set training half",
+                fit_key=FIT_KEY,
             )
             for i, (condition, idx) in enumerate(tests)
         ]

@@ -1,0 +1,234 @@
+"""The engine's fits in worker processes: each (fit group, method) is one job, and the
+jobs of every protocol of a run share one queue, so a process that finishes early takes
+the next job, whatever protocol it belongs to.
+
+Why processes: a fit and its episodes are mostly many small tensor operations from one
+Python thread. Two processes of one thread each keep both cores of a 2-core machine busy
+where one process with two threads leaves them partly idle.
+
+- Workers are spawned (never forked: torch's and MuJoCo's threads in this process must
+  not be copied) and size their thread pools to their share of the CPUs before any work
+  (:func:`tactile_synth.threads.init_worker`).
+- Datasets and their feature pools reach the workers as ``.npy`` files in a temporary
+  directory, memory-mapped read-only (``np.load(mmap_mode="r", allow_pickle=False)``):
+  written once, shared through the page cache, nothing pickled.
+- A job is a JSON text naming the tasks (their trials as indices into those datasets)
+  and the method; its results come back as JSON text (the records as results.json
+  holds them, and the per-episode accuracies), so a job's records are exactly what the
+  same fit gives in this process with the same thread count.
+- A job that fails stops the run with its error; on an interrupt (Ctrl-C) the workers are
+  terminated at once.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import json
+import multiprocessing
+import tempfile
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from synth import Dataset
+from tactile_synth.threads import init_worker, worker_threads
+
+from .budget import EpisodeBudget
+from .engine import (
+    Cell,
+    Features,
+    FitGroup,
+    FitResult,
+    Pool,
+    Scored,
+    Share,
+    Task,
+    TaskResults,
+    run_fit,
+)
+from .results import from_dict
+
+_ARRAYS = ("signals", "shape", "material", "label", "force_n", "speed_mm_s", "seed")
+
+
+# -- datasets on disk ----------------------------------------------------------------------
+def _save(data: Dataset, pool: np.ndarray, directory: Path) -> None:
+    directory.mkdir()
+    for name in _ARRAYS:
+        arr = getattr(data, name)
+        if arr.dtype == object:  # labels as fixed-width text: no pickle in the file
+            arr = arr.astype(str)
+        np.save(directory / f"{name}.npy", np.ascontiguousarray(arr), allow_pickle=False)
+    np.save(directory / "features.npy", np.ascontiguousarray(pool), allow_pickle=False)
+    meta = {"classes": list(data.classes), "attrs": data.attrs}
+    (directory / "meta.json").write_text(json.dumps(meta, default=str))
+
+
+def _open(directory: Path) -> tuple[Dataset, np.ndarray]:
+    arrays = {
+        name: np.load(directory / f"{name}.npy", mmap_mode="r", allow_pickle=False)
+        for name in _ARRAYS
+    }
+    meta = json.loads((directory / "meta.json").read_text())
+    data = Dataset(**arrays, classes=tuple(meta["classes"]), attrs=meta["attrs"])
+    return data, np.load(directory / "features.npy", mmap_mode="r", allow_pickle=False)
+
+
+# -- jobs as JSON ---------------------------------------------------------------------------
+def _pool_json(pool: Pool, refs: dict[int, str]) -> dict[str, Any]:
+    return {"data": refs[id(pool.data)], "index": pool.index.tolist()}
+
+
+def _task_json(task: Task, refs: dict[int, str]) -> dict[str, Any]:
+    return {
+        "protocol": task.protocol,
+        "fold": task.fold,
+        "condition": task.condition,
+        "fit": _pool_json(task.fit, refs),
+        "test": _pool_json(task.test, refs),
+        "grid": [[c.way, c.shot, c.seed, c.latency_episodes] for c in task.grid],
+        "episodes": [task.episodes.default, dict(task.episodes.per_method)],
+        "fit_seed": task.fit_seed,
+        "methods": None if task.methods is None else list(task.methods),
+        "fit_records": task.fit_records,
+    }
+
+
+def _task(d: dict[str, Any], datasets: dict[str, Dataset]) -> Task:
+    default, per_method = d["episodes"]
+    return Task(
+        protocol=d["protocol"],
+        fold=d["fold"],
+        condition=d["condition"],
+        fit=Pool(datasets[d["fit"]["data"]], np.asarray(d["fit"]["index"], dtype=np.intp)),
+        test=Pool(datasets[d["test"]["data"]], np.asarray(d["test"]["index"], dtype=np.intp)),
+        grid=tuple(Cell(*c) for c in d["grid"]),
+        episodes=EpisodeBudget(default, per_method),
+        fit_seed=d["fit_seed"],
+        methods=None if d["methods"] is None else tuple(d["methods"]),
+        fit_records=d["fit_records"],
+    )
+
+
+def _job_json(group: FitGroup, name: str, refs: dict[int, str]) -> str:
+    shares = [
+        {"set": s.set_index, "tasks": [_task_json(t, refs) for t in s.tasks]} for s in group.shares
+    ]
+    return json.dumps({"method": name, "methods": list(group.methods), "shares": shares})
+
+
+def _result_json(result: FitResult) -> str:
+    return json.dumps(
+        [
+            {
+                "scored": [
+                    {"record": s.record.to_dict(), "accuracies": np.asarray(s.accuracies).tolist()}
+                    for s in part.scored
+                ],
+                "fits": [r.to_dict() for r in part.fits],
+            }
+            for part in result.shares
+        ]
+    )
+
+
+def _result(text: str) -> FitResult:
+    return FitResult(
+        [
+            TaskResults(
+                [
+                    Scored(from_dict(s["record"]), np.asarray(s["accuracies"], dtype=np.float64))
+                    for s in part["scored"]
+                ],
+                [from_dict(r) for r in part["fits"]],
+            )
+            for part in json.loads(text)
+        ]
+    )
+
+
+# -- the worker side ------------------------------------------------------------------------
+_directory: Path | None = None
+_opened: dict[str, tuple[Dataset, np.ndarray]] = {}
+
+
+def _init(threads: int, directory: str) -> None:
+    global _directory
+    init_worker(threads)
+    _directory = Path(directory)
+
+
+def _run_job(payload: str) -> str:
+    job = json.loads(payload)
+    keys = {t[p]["data"] for s in job["shares"] for t in s["tasks"] for p in ("fit", "test")}
+    for key in keys - _opened.keys():
+        _opened[key] = _open(_directory / key)
+    datasets = {key: data for key, (data, _) in _opened.items()}
+    features = Features(_opened.values())
+    group = FitGroup(
+        tuple(
+            Share(s["set"], tuple(_task(t, datasets) for t in s["tasks"])) for s in job["shares"]
+        ),
+        tuple(job["methods"]),
+    )
+    return _result_json(run_fit(group, job["method"], features))
+
+
+# -- the run's side -------------------------------------------------------------------------
+def _terminate(executor: cf.ProcessPoolExecutor) -> None:
+    """Stop the workers now (``terminate_workers`` from Python 3.14 on)."""
+    stop = getattr(executor, "terminate_workers", None)
+    if stop is not None:
+        stop()
+        return
+    for process in list(getattr(executor, "_processes", {}).values()):
+        process.terminate()
+    executor.shutdown(wait=True, cancel_futures=True)
+
+
+def run_fits(
+    groups: Sequence[FitGroup],
+    jobs: Sequence[tuple[int, str]],
+    features: Features,
+    *,
+    workers: int,
+    threads: int | None = None,
+) -> Iterator[tuple[tuple[int, str], FitResult]]:
+    """Run ``jobs`` (group index, method name) in ``workers`` processes of ``threads``
+    threads each (default: their share of the CPUs); yields each job's result as it
+    finishes."""
+    threads = threads or worker_threads(workers)
+    with tempfile.TemporaryDirectory(prefix="tactile-synth-fits-") as tmp:
+        refs: dict[int, str] = {}
+        for group in groups:
+            for share in group.shares:
+                for task in share.tasks:
+                    for pool in (task.fit, task.test):
+                        if id(pool.data) not in refs:
+                            refs[id(pool.data)] = key = f"data{len(refs)}"
+                            _save(pool.data, features.of(pool.data), Path(tmp) / key)
+        executor = cf.ProcessPoolExecutor(
+            max_workers=min(workers, len(jobs)),
+            mp_context=multiprocessing.get_context("spawn"),
+            initializer=_init,
+            initargs=(threads, tmp),
+        )
+        futures = {
+            executor.submit(_run_job, _job_json(groups[g], name, refs)): (g, name)
+            for g, name in jobs
+        }
+        pending = set(futures)
+        try:
+            while pending:
+                # A timeout, so that Ctrl-C is seen at once while the workers are busy.
+                finished, pending = cf.wait(pending, timeout=0.5, return_when=cf.FIRST_COMPLETED)
+                for future in finished:
+                    yield futures[future], _result(future.result())
+        except BaseException:
+            for future in futures:
+                future.cancel()
+            _terminate(executor)
+            raise
+        executor.shutdown(wait=True)

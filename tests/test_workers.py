@@ -1,0 +1,154 @@
+"""Fits in worker processes (``benchmark.workers``) and one queue of fits for several
+protocols (``benchmark.engine.run_task_sets``): the same records as one process with the
+same threads per fit, one fit shared by the closed-set and perturbation protocols, a
+failing fit stopping the run with its error, and an interrupt stopping the workers."""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+import threading
+import time
+
+import pytest
+
+from benchmark import engine
+from benchmark.protocols.closed_set import ClosedSet
+from benchmark.protocols.perturbation import Perturbation
+from benchmark.results import TIMING_FIELDS, to_json
+from models.base import FewShotMethod
+from tactile_synth import threads
+from tests.synthetic_data import make_dataset
+from tests.test_run import _perturbed
+
+SPEC = "tests.test_workers:{}"
+
+
+class Counting(FewShotMethod):
+    """Nearest class mean of the channel means; counts its fits."""
+
+    name = "counting"
+    fits = 0
+
+    def _fit(self, signals, labels, features):
+        Counting.fits += 1
+
+    def _predict(self, signals, support, query, features):
+        x = signals.mean(axis=2)
+        protos = x[support].mean(axis=2)
+        d = ((x[query][:, :, None, :] - protos[:, None, :, :]) ** 2).sum(-1)
+        return d.argmin(axis=2)
+
+
+class Failing(Counting):
+    name = "failing"
+
+    def _fit(self, signals, labels, features):
+        raise ValueError("this fit fails on purpose")
+
+
+class Sleeping(Counting):
+    name = "sleeping"
+
+    def _fit(self, signals, labels, features):
+        time.sleep(120)
+
+
+@pytest.fixture(scope="module")
+def datasets():
+    return make_dataset(trials_per_class=6, n_samples=400, noise=0.2), _perturbed()
+
+
+def _sets(datasets, episodes=6):
+    data, pert = datasets
+    budget = engine.EpisodeBudget(episodes)
+    return [
+        list(ClosedSet().tasks(data, None, seed=3, episodes=budget)),
+        list(Perturbation().tasks(data, pert, seed=3, episodes=budget)),
+    ]
+
+
+def _comparable(done: list[engine.TaskResults]) -> list:
+    out = []
+    for part in done:
+        records = to_json([s.record for s in part.scored] + part.fits)
+        out.append([{k: v for k, v in r.items() if k not in TIMING_FIELDS} for r in records])
+        out.append([s.accuracies.tolist() for s in part.scored])
+    return out
+
+
+def test_closed_set_and_perturbation_share_one_fit(datasets, monkeypatch):
+    sets = _sets(datasets)
+    groups, order = engine.plan_fits(sets, ["AFOP-ML"])
+    # One fit group serves the closed-set task and every perturbation condition.
+    assert len(groups) == 1 and order == [[0], [0]]
+    assert [len(s.tasks) for s in groups[0].shares] == [1, len(sets[1])]
+    Counting.fits = 0
+    monkeypatch.setattr(engine, "make_method", lambda name, seed=0: Counting(seed=seed))
+    done = engine.run_task_sets(sets, ["AFOP-ML"])
+    assert Counting.fits == 1
+    assert {s.record.protocol for s in done[0].scored} == {"closed-set"}
+    assert {s.record.protocol for s in done[1].scored} == {"perturbation"}
+    # The pooled perturbation task is there too, each task with its own cells.
+    conditions = {s.record.condition for s in done[1].scored}
+    assert "pooled" in conditions and len(conditions) == len(sets[1])
+
+
+def test_sets_complete_in_their_own_order_of_records(datasets):
+    """A set's records come in task, method, cell order, whatever set shares its fit."""
+    sets = _sets(datasets)
+    methods = ["AFOP-ML", SPEC.format("Counting")]
+    together = engine.run_task_sets(sets, methods)
+    alone = [engine.run_tasks(tasks, methods) for tasks in sets]
+    assert _comparable(together) == _comparable(alone)
+
+
+@pytest.mark.slow
+def test_worker_processes_give_the_records_of_one_process(datasets):
+    sets = _sets(datasets, episodes=8)
+    methods = ["AFOP-ML", "CNN", SPEC.format("Counting")]
+    finished: list[int] = []
+    threads.configure(1)  # the same threads per fit in this process as in each worker
+    try:
+        here = engine.run_task_sets(sets, methods, workers=1)
+        there = engine.run_task_sets(
+            sets, methods, workers=2, threads=1, on_done=lambda i, _: finished.append(i)
+        )
+    finally:
+        threads.configure()
+    assert _comparable(there) == _comparable(here)
+    assert sorted(finished) == [0, 1]
+    assert multiprocessing.active_children() == []
+
+
+def test_a_failing_fit_stops_the_run_with_its_error(datasets):
+    sets = _sets(datasets)
+    with pytest.raises(ValueError, match="this fit fails on purpose"):
+        engine.run_task_sets(sets, [SPEC.format("Counting"), SPEC.format("Failing")], workers=2)
+    deadline = time.monotonic() + 10
+    while multiprocessing.active_children() and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert multiprocessing.active_children() == []
+
+
+def test_an_interrupt_stops_the_workers_at_once(datasets):
+    sets = _sets(datasets)
+    # Ctrl-C (SIGINT to this process) while both workers sleep in their fits.
+    timer = threading.Timer(8.0, os.kill, (os.getpid(), signal.SIGINT))
+    start = time.monotonic()
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            engine.run_task_sets(
+                sets, [SPEC.format("Sleeping"), "AFOP-ML", SPEC.format("Sleeping")], workers=2
+            )
+    finally:
+        timer.cancel()
+    assert time.monotonic() - start < 60  # far less than the sleeping fits' 120 s
+    assert multiprocessing.active_children() == []
+
+
+def test_workers_must_be_a_positive_integer(datasets):
+    with pytest.raises(ValueError, match="workers must be >= 1"):
+        engine.run_task_sets(_sets(datasets), ["AFOP-ML"], workers=0)
