@@ -325,6 +325,20 @@ def plan_fits(
     return groups, order
 
 
+class SetResults(NamedTuple):
+    """What :func:`run_task_sets` returns: each set's results, and the processes its fits
+    ran in (1: this process; 0: there was nothing to fit)."""
+
+    sets: list[TaskResults]
+    processes: int
+
+
+def fit_processes(workers: int, fits: int) -> int:
+    """Processes ``fits`` fits run in when ``workers`` are allowed: no more than there
+    are fits (1: this process)."""
+    return max(1, min(workers, fits))
+
+
 class FitResult(NamedTuple):
     """One method's fit on a :class:`FitGroup`: the results of each of its shares, in
     the group's order."""
@@ -370,16 +384,16 @@ def run_task_sets(
     workers: int = 1,
     threads: int | None = None,
     on_done: Callable[[int, TaskResults], None] | None = None,
-) -> list[TaskResults]:
+) -> SetResults:
     """Run several sets of tasks (a protocol's each) through one queue of fits: every
     method fitted once per fit group (:func:`plan_fits`), every cell of every task
     evaluated. Returns each set's results in task-set order, and calls ``on_done(i,
     results)`` as soon as set ``i`` is complete (a run checkpoints it there).
 
-    workers: processes the fits run in (1: this process, in order; more: see
-    :mod:`benchmark.workers`, each with ``threads`` threads, by default its share of the
-    CPUs). A set's results, and their order (task, method, cell), do not depend on
-    ``workers``; their bits depend on the threads each fit ran with.
+    workers: processes the fits may run in (:func:`fit_processes`; 1: this process, in
+    order; more: see :mod:`benchmark.workers`, each with ``threads`` threads, by default
+    its share of the CPUs). A set's results, and their order (task, method, cell), do not
+    depend on ``workers``; their bits depend on the threads each fit ran with.
     on_fit(task, method name, fitted): called after each fit (one process only).
     """
     check_int("workers", workers, minimum=1)
@@ -422,8 +436,9 @@ def run_task_sets(
     desc = task_sets[0][0].protocol if len(task_sets) == 1 and task_sets[0] else "benchmark"
     # disable=None: quiet when stderr is not a TTY.
     bar = tqdm(total=total, desc=desc, disable=None if progress else True, leave=False)
+    processes = fit_processes(workers, len(jobs)) if jobs else 0
     try:
-        if workers == 1 or len(jobs) <= 1:
+        if processes <= 1:
             for g, name in jobs:
                 finished((g, name), run_fit(groups[g], name, features, bar=bar, on_fit=on_fit))
         else:
@@ -432,14 +447,14 @@ def run_task_sets(
             from .workers import run_fits
 
             for (g, name), result in run_fits(
-                groups, jobs, features, workers=workers, threads=threads
+                groups, jobs, features, workers=processes, threads=threads
             ):
                 finished((g, name), result)
                 bar.set_postfix_str(f"{name} {groups[g].first.protocol} {groups[g].first.name}")
                 bar.update(groups[g].cells)
     finally:
         bar.close()
-    return results  # type: ignore[return-value]  # every set completed above
+    return SetResults(results, processes)  # type: ignore[arg-type]  # every set is complete
 
 
 def run_tasks(
@@ -466,7 +481,7 @@ def run_tasks(
         on_fit=on_fit,
         workers=workers,
         threads=threads,
-    )[0]
+    ).sets[0]
 
 
 def _evaluate_task(

@@ -16,6 +16,7 @@ from __future__ import annotations
 import time
 from collections.abc import Sequence
 from pathlib import Path
+from typing import NamedTuple
 
 from models.registry import METHOD_NAMES
 from shapes.validation import check_int
@@ -48,8 +49,9 @@ NOTES = (
     "CWT-ResNet-ML's ResNet was pretrained from scratch on each task's training classes "
     "only (no ImageNet weights: none may be downloaded, and none would have seen tactile "
     "scalograms).",
-    "The perturbation protocol fits each method on the closed-set training half of the "
-    "nominal dataset (same seeded 50:50 per-class split as closed-set).",
+    "The perturbation protocol tests the closed-set fit of each method (fitted once on the "
+    "closed-set training half of the nominal dataset, the same seeded 50:50 per-class "
+    "split).",
 )
 
 
@@ -65,11 +67,11 @@ def run_protocols(
     progress: bool,
     features: Features,
     workers: int = 1,
-) -> list[Record]:
+) -> ProtocolRuns:
     """Every protocol's records, each from its checkpoint in ``out`` when the inputs are
     unchanged, else run by the engine and checkpointed as soon as it completes. The
     protocols still to run share one queue of fits (:func:`benchmark.engine.run_task_sets`)
-    in ``workers`` processes."""
+    in up to ``workers`` processes."""
     base = {
         "data": checkpoints.fingerprint(data),
         "perturbed": None if perturbed is None else checkpoints.fingerprint(perturbed),
@@ -77,6 +79,7 @@ def run_protocols(
         "seed": seed,
     }
     found: dict[int, list[Record]] = {}
+    processes = 0
     pending: list[tuple[int, Protocol, str, list[Task]]] = []
     for i, protocol in enumerate(protocols):
         per_method = budget.for_protocol(protocol.name)
@@ -114,25 +117,35 @@ def run_protocols(
             checkpoints.save(out, protocol.name, key, found[i])
             log(progress, f"{protocol.name}: done ({time.perf_counter() - start:.0f} s)")
 
-        run_task_sets(
+        processes = run_task_sets(
             [tasks for _, _, _, tasks in pending],
             methods,
             features=features,
             progress=progress,
             workers=workers,
             on_done=done,
-        )
-    return [r for i in range(len(protocols)) for r in found[i]]
+        ).processes
+    return ProtocolRuns([r for i in range(len(protocols)) for r in found[i]], processes)
+
+
+class ProtocolRuns(NamedTuple):
+    """What :func:`run_protocols` returns: the records, and the processes the fits ran in
+    (0: every protocol came from its checkpoint)."""
+
+    records: list[Record]
+    processes: int
+
+
+def threads_line(processes: int) -> str:
+    """The report's thread line: the settings the fits ran with."""
+    if processes > 1:
+        return f"{describe_threads(processes)}; fits in {processes} worker processes"
+    return describe_threads()
 
 
 def default_workers() -> int:
     """Processes a benchmark's fits run in by default: one per CPU this process may use."""
     return settings().cpus
-
-
-def workers_note(workers: int) -> str:
-    """What the report adds to the thread line when fits ran in worker processes."""
-    return f"; fits in {workers} worker processes" if workers > 1 else ""
 
 
 def benchmark_all(
@@ -168,7 +181,7 @@ def benchmark_all(
     for d in (data, perturbed):
         features.of(d)
     protocols = [get(name) for name in PROTOCOL_NAMES]
-    records = run_protocols(
+    records, processes = run_protocols(
         protocols,
         data,
         perturbed,
@@ -193,7 +206,7 @@ def benchmark_all(
         "perturbed": dataset_summary(perturbed, perturbed_path),
         "methods": list(methods),
         "episodes": budget.describe(methods, PROTOCOL_NAMES),
-        "threads": describe_threads(workers) + workers_note(workers),
+        "threads": threads_line(processes),
         "cross_shape_folds": [list(f) for f in CROSS_SHAPE_FOLDS],
         "figures": draw_figures(records, data, artefacts, out),
         "figure_notes": figure_notes(records, artefacts, seed),

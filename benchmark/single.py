@@ -7,7 +7,6 @@ from pathlib import Path
 
 from models.registry import METHOD_NAMES
 from shapes.validation import check_int
-from tactile_synth.threads import describe as describe_threads
 
 from . import figures
 from .budget import Budget
@@ -47,7 +46,7 @@ def benchmark_protocol(
     from synth import load_dataset
 
     from .report import dataset_summary, write_report
-    from .run import workers_note, benchmark_all, default_workers, run_protocols
+    from .run import benchmark_all, default_workers, run_protocols, threads_line
 
     chosen = None if protocol == "all" else get(protocol, arg="PROTOCOL")
     methods = check_methods(list(methods) if methods else list(METHOD_NAMES))
@@ -76,7 +75,7 @@ def benchmark_protocol(
                 perturbed_path=perturbed_path,
                 workers=workers,
             )
-        records = run_protocols(
+        records, processes = run_protocols(
             [chosen, Reference()] if chosen.uses_reference else [chosen],
             data,
             perturbed,
@@ -107,7 +106,7 @@ def benchmark_protocol(
             "perturbed": None if perturbed is None else dataset_summary(perturbed, perturbed_path),
             "methods": list(methods),
             "episodes": f"{episodes} per cell",
-            "threads": describe_threads(workers) + workers_note(workers),
+            "threads": threads_line(processes),
             "figures": made,
             "notes": [f"protocol {chosen.name} only"],
         }

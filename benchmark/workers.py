@@ -210,7 +210,7 @@ def run_fits(
                             refs[id(pool.data)] = key = f"data{len(refs)}"
                             _save(pool.data, features.of(pool.data), Path(tmp) / key)
         executor = cf.ProcessPoolExecutor(
-            max_workers=min(workers, len(jobs)),
+            max_workers=workers,
             mp_context=multiprocessing.get_context("spawn"),
             initializer=_init,
             initargs=(threads, tmp),

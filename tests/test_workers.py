@@ -86,7 +86,7 @@ def test_closed_set_and_perturbation_share_one_fit(datasets, monkeypatch):
     assert [len(s.tasks) for s in groups[0].shares] == [1, len(sets[1])]
     Counting.fits = 0
     monkeypatch.setattr(engine, "make_method", lambda name, seed=0: Counting(seed=seed))
-    done = engine.run_task_sets(sets, ["AFOP-ML"])
+    done = engine.run_task_sets(sets, ["AFOP-ML"]).sets
     assert Counting.fits == 1
     assert {s.record.protocol for s in done[0].scored} == {"closed-set"}
     assert {s.record.protocol for s in done[1].scored} == {"perturbation"}
@@ -99,7 +99,7 @@ def test_sets_complete_in_their_own_order_of_records(datasets):
     """A set's records come in task, method, cell order, whatever set shares its fit."""
     sets = _sets(datasets)
     methods = ["AFOP-ML", SPEC.format("Counting")]
-    together = engine.run_task_sets(sets, methods)
+    together = engine.run_task_sets(sets, methods).sets
     alone = [engine.run_tasks(tasks, methods) for tasks in sets]
     assert _comparable(together) == _comparable(alone)
 
@@ -117,7 +117,8 @@ def test_worker_processes_give_the_records_of_one_process(datasets):
         )
     finally:
         threads.configure()
-    assert _comparable(there) == _comparable(here)
+    assert (here.processes, there.processes) == (1, 2)
+    assert _comparable(there.sets) == _comparable(here.sets)
     assert sorted(finished) == [0, 1]
     assert multiprocessing.active_children() == []
 

@@ -6,7 +6,8 @@ speed on the original training set"), then evaluated N-way-1-shot (N = 2..12) on
 perturbation dataset: per force/speed combination (``condition="force=1.4N,speed=6mm/s"``)
 and on all its trials together (``condition="pooled"``). The 5-way-1-shot per-condition
 records form the force x speed heat map. ``fold`` is null. One AFOP-ML selection record
-(the nominal fit).
+(the nominal fit). Its tasks carry the closed-set task's fit key, so a command that runs
+both protocols fits each method once for the two.
 
 The "Force&Speed" D of this protocol (paper Fig. 6) is therefore the closed-set D: the fit
 is the closed-set fit, and its D-scan sees only nominal training trials (drawing
