@@ -34,6 +34,7 @@ import numpy as np
 from mujoco import _rollout
 
 from . import contact
+from . import pieces as pieces_mod
 from . import scene as scene_mod
 from . import texture as texture_mod
 from .config import SynthConfig
@@ -86,7 +87,11 @@ class ClosedLoop:
     """
 
     def __init__(
-        self, models: Sequence[mujoco.MjModel], trials: Sequence[LoopTrial], config: SynthConfig
+        self,
+        models: Sequence[mujoco.MjModel],
+        trials: Sequence[LoopTrial],
+        config: SynthConfig,
+        shape: str | None = None,
     ) -> None:
         self.models = list(models)
         self.trials = list(trials)
@@ -112,6 +117,12 @@ class ClosedLoop:
         self.y_ref = np.stack([t.y_ref for t in self.trials])
         self.z_ref = np.array([t.z_ref0 for t in self.trials])
         self.b = b
+        # A specimen of several convex pieces: one contact per region of its surface.
+        self.pieces = (
+            None
+            if shape is None
+            else pieces_mod.piece_contacts(shape, self.models, config.finger.pad_radius_m)
+        )
 
     def friction(self, slip_speed: np.ndarray, normal_n: np.ndarray) -> np.ndarray:
         """Coefficient of each trial's law at its slip speed and normal load."""
@@ -142,12 +153,14 @@ class ClosedLoop:
         b, base = self.b, self.models[0]
         nstate, nsens = initial_state.shape[1], base.nsensordata
         lay, cols = self.layout, self.cols
-        # Outputs laid out period-major so each period's block is contiguous for rollout.
-        sens_out = np.empty((nseg, b, k, nsens))
-        height_out = np.empty((nseg, b, k))
+        # Outputs laid out trial-major, (b, steps, ...); rollout writes each period into
+        # contiguous buffers that are copied in (small, cache-resident blocks).
+        sens_out = np.empty((b, nseg, k, nsens))
+        height_out = np.empty((b, nseg, k))
+        sens = np.empty((b, k, nsens))
         control = np.zeros((b, k, lay["size"].stop))
         state_buf = np.empty((b, k, nstate))
-        qpos_out = np.empty((nseg, b, k, self.nq)) if record_qpos else None
+        qpos_out = np.empty((b, nseg, k, self.nq)) if record_qpos else None
         x_seg = self.x_ref[:, :steps].reshape(b, nseg, k)
         y_seg = self.y_ref[:, :steps].reshape(b, nseg, k)
         state = np.ascontiguousarray(initial_state)
@@ -160,6 +173,7 @@ class ClosedLoop:
         c_skin = slice(cols["skin_pos"].start, cols["skin_pos"].start + 2)
         c_slip = slice(cols["slip_vel"].start, cols["slip_vel"].start + 2)
         c_wrist = cols["drive_force"].start
+        c_pad = slice(cols["pad_pos"].start, cols["pad_pos"].start + 2)
         mx, mz = lay["pad_wrench"].start, lay["mocap_pos"].start + 2
         direction = self.dir
         ahead = np.arange(1, k + 1) * dt
@@ -171,6 +185,8 @@ class ClosedLoop:
         normal = self.force.copy()
         wrist = self.force.copy()
         wrist_sum = np.zeros(b)
+        if self.pieces is not None:
+            self.pieces.update(np.stack([self.x_ref[:, 0], self.y_ref[:, 0]], axis=1))
         runner = _rollout.Rollout(nthread=nthread if nthread > 1 else 0)
         spec = int(scene_mod.CONTROL_SPEC)
         for g in range(nseg):
@@ -200,13 +216,13 @@ class ClosedLoop:
             control[:, :, mx + 3] = radius * fy  # r x F at the contact, r = -R z
             control[:, :, mx + 4] = -radius * fx
             control[:, :, mz] = h
-            sens = sens_out[g]
             runner.rollout(self.models, datas, k, spec, state, warm, control, state_buf, sens, None)
-            height_out[g] = h
+            sens_out[:, g] = sens
+            height_out[:, g] = h
             if qpos_out is not None:
-                qpos_out[g] = state_buf[:, :, 1 : 1 + self.nq]
+                qpos_out[:, g] = state_buf[:, :, 1 : 1 + self.nq]
             if any(w.any() for w in warnings):
-                return self._finish(sens_out, height_out, steps)
+                return sens_out.reshape(b, steps, nsens), height_out.reshape(b, steps)
             state = state_buf[:, k - 1].copy()
             warm = (state_buf[:, k - 1, qvel] - state_buf[:, k - 2, qvel]) / dt
             # The state the next period's inputs respond to.
@@ -218,15 +234,8 @@ class ClosedLoop:
             v_now = (slip * direction).sum(axis=1)
             slip_speed = np.hypot(slip[:, 0], slip[:, 1])
             wrist_sum -= sens[:, :, c_wrist].sum(axis=1)
+            if self.pieces is not None:
+                self.pieces.update(last[:, c_pad])
         if qpos_out is not None:
-            self.qpos_ = np.ascontiguousarray(qpos_out.transpose(1, 0, 2, 3)).reshape(
-                b, steps, self.nq
-            )
-        return self._finish(sens_out, height_out, steps)
-
-    @staticmethod
-    def _finish(sens_out, height_out, steps):
-        _, b, _, nsens = sens_out.shape
-        sens = np.ascontiguousarray(sens_out.transpose(1, 0, 2, 3)).reshape(b, steps, nsens)
-        heights = np.ascontiguousarray(height_out.transpose(1, 0, 2)).reshape(b, steps)
-        return sens, heights
+            self.qpos_ = qpos_out.reshape(b, steps, self.nq)
+        return sens_out.reshape(b, steps, nsens), height_out.reshape(b, steps)

@@ -23,6 +23,7 @@ bit-identical whatever batch, thread or process simulates it.
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from collections.abc import Sequence
@@ -44,8 +45,19 @@ from .closed_loop import ClosedLoop, LoopTrial
 from .config import SynthConfig
 from .trial import N_SAMPLES, SAMPLE_RATE_HZ, WINDOW_S, Trial, TrialSpec, class_index
 
-#: Trials per rollout call (bounds memory: ~1 MB of state and sensors per trial).
-CHUNK = 32
+#: Most trials per rollout batch (bounds memory: about 2 MB of state and sensors per
+#: trial). Larger batches share the closed loop's per-period Python work among more
+#: trials; a generation chunk (36 trials of one shape in the presets) is one batch.
+CHUNK = 64
+
+
+def batches(n: int, size: int = CHUNK) -> list[slice]:
+    """``n`` items cut into the fewest batches of at most ``size``, as equal as possible."""
+    count = -(-n // size)
+    bounds = [round(i * n / count) for i in range(count + 1)] if count else [0]
+    return [slice(a, b) for a, b in itertools.pairwise(bounds)]
+
+
 #: Largest tolerated gap between the finger and its commanded path: beyond the elastic lag
 #: of the PDMS and servo at an edge (a few mm), the finger is stuck.
 MAX_TRACKING_ERROR_M = 8e-3
@@ -127,15 +139,41 @@ def contact_phase_m(
 ) -> tuple[float, float]:
     """Path coordinates ``(first, last)`` between which the pad's axis is within
     ``reach_m`` of the raised outline (the path is ``(d cos yaw, y_offset + d sin yaw)``):
-    the skin's first touch of the entry edge and last touch of the exit edge."""
+    the skin's first touch of the entry edge and last touch of the exit edge, on a grid of
+    ``TOUCH_STEP_M``.
+
+    The distance to the outline changes by at most the step along the path, so a grid
+    :data:`_COARSE` times coarser finds where the fine grid can come within reach; the
+    fine grid is then searched only there (the same answer as searching all of it)."""
     poly = shapes.outline(shape)
     half = SPECIMEN.base_length_m / 2
     d = np.arange(-half, half, TOUCH_STEP_M)
-    pts = shapely.points(d * math.cos(yaw_rad), y_offset_m + d * math.sin(yaw_rad))
-    near = np.flatnonzero(shapely.distance(pts, poly) <= reach_m)
-    if near.size == 0:
+    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+
+    def near(idx: np.ndarray, limit: float) -> np.ndarray:
+        pts = shapely.points(d[idx] * c, y_offset_m + d[idx] * s)
+        return idx[shapely.distance(pts, poly) <= limit]
+
+    coarse = near(np.arange(0, d.size, _COARSE), reach_m + _COARSE * TOUCH_STEP_M)
+    if coarse.size == 0:
         raise ValueError(f"the path at y = {y_offset_m * 1e3:.2f} mm misses the {shape} outline")
-    return float(d[near[0]]), float(d[near[-1]])
+
+    def edge(candidates: np.ndarray, last: bool) -> int | None:
+        for j in candidates:
+            window = np.arange(max(j - _COARSE, 0), min(j + _COARSE + 1, d.size))
+            hit = near(window, reach_m)
+            if hit.size:
+                return int(hit[-1] if last else hit[0])
+        return None
+
+    lo, hi = edge(coarse, last=False), edge(coarse[::-1], last=True)
+    if lo is None or hi is None:
+        raise ValueError(f"the path at y = {y_offset_m * 1e3:.2f} mm misses the {shape} outline")
+    return float(d[lo]), float(d[hi])
+
+
+#: Coarse grid of :func:`contact_phase_m`, in fine steps.
+_COARSE = 25
 
 
 def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
@@ -283,7 +321,9 @@ def _roll(
     ``(b, steps, nsensordata)`` and the specimen's texture heights ``(b, steps)``."""
     for d in datas:
         mujoco.mj_resetData(plans[0].model, d)
-    loop = ClosedLoop([p.model for p in plans], [p.loop for p in plans], config)
+    loop = ClosedLoop(
+        [p.model for p in plans], [p.loop for p in plans], config, shape=plans[0].spec.shape
+    )
     steps = max(p.steps for p in plans)
     sens, heights = loop.run(datas, _initial_states(plans), steps, len(datas))
     warned = [w for d in datas for w in range(len(d.warning)) if d.warning[w].number > 0]
@@ -431,11 +471,7 @@ def simulate_batch(
     for i, s in enumerate(specs):
         by_shape.setdefault((s.shape, s.speed_mm_s), []).append(i)
     results: list[Trial | None] = [None] * len(specs)
-    chunks = [
-        members[start : start + CHUNK]
-        for members in by_shape.values()
-        for start in range(0, len(members), CHUNK)
-    ]
+    chunks = [members[part] for members in by_shape.values() for part in batches(len(members))]
     bar = None
     if progress:
         from tqdm import tqdm
@@ -491,8 +527,8 @@ def raw_rollout(
         steps = max(p.steps for p in group)
         datas = [mujoco.MjData(group[0].model) for _ in range(threads)]
         lay = scene_mod.control_layout(group[0].model)
-        for start in range(0, len(group), CHUNK):
-            chunk = group[start : start + CHUNK]
+        for part in batches(len(group)):
+            chunk = group[part]
             control = np.zeros((len(chunk), steps, lay["size"].stop))
             for i, p in enumerate(chunk):
                 control[i, :, 0] = p.loop.x_ref[:steps]
@@ -517,7 +553,7 @@ def replay(spec: TrialSpec, config: SynthConfig | None = None):
     replaying its motion in a viewer."""
     config = _check_config(config)
     p = plan(spec, config)
-    loop = ClosedLoop([p.model], [p.loop], config)
+    loop = ClosedLoop([p.model], [p.loop], config, shape=spec.shape)
     datas = [mujoco.MjData(p.model)]
     _, heights = loop.run(datas, _initial_states([p]), p.steps, 1, record_qpos=True)
     return p.model, loop.qpos_[0], heights[0]

@@ -65,8 +65,10 @@ from .materials import MATERIAL_NAMES
 from .presets import GenerationConfig, TrialPlan, condition_name, plan
 from .trial import CHANNELS, CLASS_NAMES, N_SAMPLES, SAMPLE_RATE_HZ, TrialSpec, class_index
 
-#: Bumped whenever the layout above changes incompatibly.
-FORMAT_VERSION: int = 2
+#: Bumped whenever the layout above changes incompatibly or the simulator writes other
+#: signals for the same configuration (a store is only resumed by the simulator that
+#: started it).
+FORMAT_VERSION: int = 3
 ATTR_KEY = "tactile_synth"
 #: The two kinds of store (attribute ``kind``; a store without it is simulated).
 KIND_SIMULATED = "simulated"
