@@ -115,11 +115,12 @@ def main(argv: list[str] | None = None) -> int:
     results["raw"] = raw
     if raw is not None:
         best = max(r["trials_per_s"] for r in results["runs"])
-        results["ratio"] = best / raw["trials_per_s"]
+        # Time of the fastest generation over the raw physics' time (target <= 1.25).
+        results["time_ratio"] = raw["trials_per_s"] / best
         print(
             f"raw mujoco.rollout, same scenes: {raw['trials']} trials in {raw['wall_s']:.1f} s "
             f"wall, {raw['cpu_s']:.1f} s CPU -> {raw['trials_per_s']:.1f} trials/s; "
-            f"generate/raw = {results['ratio']:.2f}"
+            f"generation takes {results['time_ratio']:.2f}x the raw physics' time"
         )
     if args.json:
         Path(args.json).write_text(json.dumps(results, indent=2))
