@@ -213,7 +213,7 @@ def benchmark_all(
         "notes": list(NOTES),
     }
     write_report(records, out, meta)
-    log(progress, f"done in {time.perf_counter() - t_start:.0f} s")
+    log(progress, f"benchmark done in {time.perf_counter() - t_start:.0f} s")
     return records
 
 
@@ -265,6 +265,7 @@ def run(
     for path, arg in zip(given.values(), ("data", "perturbed"), strict=True):
         if path is not None and not Path(path).is_dir():
             raise FileNotFoundError(f"--{arg} {path} is not a dataset directory")
+    t_start = time.perf_counter()
     with OutputDir(out, overwrite=overwrite, command="run") as target:
         paths = prepare_datasets(
             plan, out, given, progress=progress, workers=workers, simulator=simulator
@@ -272,7 +273,7 @@ def run(
         nominal = load_dataset(paths["nominal"])
         pert = load_dataset(paths["perturbation"])
         check_perturbation_pair(nominal, pert)
-        return benchmark_all(
+        records = benchmark_all(
             nominal,
             pert,
             target,
@@ -284,3 +285,5 @@ def run(
             perturbed_path=paths["perturbation"],
             workers=workers,
         )
+    log(progress, f"done in {time.perf_counter() - t_start:.0f} s (datasets and benchmark)")
+    return records
