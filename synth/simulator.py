@@ -155,8 +155,6 @@ def contact_phase_m(
         return idx[shapely.distance(pts, poly) <= limit]
 
     coarse = near(np.arange(0, d.size, _COARSE), reach_m + _COARSE * TOUCH_STEP_M)
-    if coarse.size == 0:
-        raise ValueError(f"the path at y = {y_offset_m * 1e3:.2f} mm misses the {shape} outline")
 
     def edge(candidates: np.ndarray, last: bool) -> int | None:
         for j in candidates:

@@ -3,15 +3,12 @@ reused without faulting their pages in again, and users keep their own settings.
 
 from __future__ import annotations
 
-import json
 import os
-import subprocess
-import sys
-from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+from tests.fresh_interpreter import run_json
+
 _VARS = (
     "TACTILE_SYNTH_MALLOC",
     "MALLOC_MMAP_THRESHOLD_",
@@ -39,16 +36,7 @@ PAGES = 48_000_000 // 4096  # pages of one array
 
 
 def probe(**env: str) -> dict:
-    base = {k: v for k, v in os.environ.items() if k not in _VARS}
-    base["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), base.get("PYTHONPATH")]))
-    out = subprocess.run(
-        [sys.executable, "-c", PROBE],
-        env={**base, **env},
-        capture_output=True,
-        text=True,
-        check=True,
-    )
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    return run_json(PROBE, _VARS, **env)
 
 
 def _is_glibc() -> bool:

@@ -5,7 +5,6 @@ generated data, and the report stating the settings."""
 
 from __future__ import annotations
 
-import json
 import os
 import subprocess
 import sys
@@ -17,8 +16,8 @@ import pytest
 import synth
 from synth import load_dataset
 from tactile_synth import threads
+from tests.fresh_interpreter import ROOT, run_json
 
-ROOT = Path(__file__).resolve().parents[1]
 _THREAD_VARS = (
     "TACTILE_SYNTH_THREADS",
     "OMP_NUM_THREADS",
@@ -35,17 +34,7 @@ _THREAD_VARS = (
 def fresh(code: str, **env: str) -> dict:
     """Run ``code`` in a new interpreter whose thread variables are only ``env``; returns
     the JSON it prints last."""
-    base = {k: v for k, v in os.environ.items() if k not in _THREAD_VARS}
-    base["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), base.get("PYTHONPATH")]))
-    out = subprocess.run(
-        [sys.executable, "-c", code],
-        env={**base, **env},
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        check=True,
-    ).stdout
-    return json.loads(out.strip().splitlines()[-1])
+    return run_json(code, _THREAD_VARS, **env)
 
 
 SETTINGS = (
