@@ -203,22 +203,23 @@ def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
     _check_on_plate(spec, x_ref, y_ref, finger.pad_radius_m)
 
     s_path = d + y_offset * s  # path coordinate p . direction along the commanded path
+    sink = float(
+        contact.hertz_indentation_m(
+            force, finger.pad_radius_m, finger.skin_modulus_pa, finger.skin_poisson
+        )
+    )
     surface = texture.felt_surface(
         material.texture,
         finger,
         float(s_path[0]) - 2 * finger.pad_radius_m,
         float(s_path[-1]) + 2 * finger.pad_radius_m,
         np.random.default_rng(texture_ss),
+        contact_radius_m=math.sqrt(finger.pad_radius_m * sink),  # Hertz: a^2 = R delta
     )
     sc = scene_mod.scene(spec.shape, config)
     qpos = np.zeros(sc.model.nq)
     qi = sc.qpos_index
     preload = force / finger.pdms_normal_stiffness_n_m
-    sink = float(
-        contact.hertz_indentation_m(
-            force, finger.pad_radius_m, finger.skin_modulus_pa, finger.skin_poisson
-        )
-    )
     h0 = float(
         texture.look_up(
             np.array([surface.origin_m]), surface.height_m[None], np.array([[s_path[0]]])

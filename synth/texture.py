@@ -36,19 +36,44 @@ from .materials import Texture
 GRID_M = 5e-6
 
 
-def profile(texture: Texture, length_m: float, rng: np.random.Generator) -> np.ndarray:
-    """Height samples (m) on a ``GRID_M`` grid over ``length_m``: roughness + periodic."""
+def line_average_variance(correlation_length_m: float, line_length_m: float) -> float:
+    """Variance factor of an exponentially correlated random height averaged along a line.
+
+    The mean of a field with autocorrelation ``exp(-|u| / l)`` over a segment of length
+    ``L`` has variance ``2 (l / L)^2 (L / l - 1 + exp(-L / l))`` times the field's: 1 for
+    ``L << l``, about ``2 l / L`` for ``L >> l``.
+    """
+    if line_length_m <= 0:
+        return 1.0
+    r = line_length_m / correlation_length_m
+    return float(2.0 * (r - 1.0 + math.exp(-r)) / (r * r))
+
+
+def profile(
+    texture: Texture,
+    length_m: float,
+    rng: np.random.Generator,
+    *,
+    line_length_m: float = 0.0,
+) -> np.ndarray:
+    """Height samples (m) on a ``GRID_M`` grid over ``length_m``: roughness + periodic.
+
+    ``line_length_m`` is the length of the ridge's line contact across the sliding
+    direction: the random roughness (isotropic, measured on a line along the path) is
+    averaged over it, the periodic marks (running across the path) are not.
+    """
     n = math.ceil(length_m / GRID_M) + 1
     s = np.arange(n) * GRID_M
     h = np.zeros(n)
     if texture.roughness_rms_m > 0:
         # Gaussian process with exponential autocorrelation = AR(1) on the grid.
+        rms = texture.roughness_rms_m * math.sqrt(
+            line_average_variance(texture.correlation_length_m, line_length_m)
+        )
         a = math.exp(-GRID_M / texture.correlation_length_m)
         eps = rng.standard_normal(n)
-        h0 = rng.standard_normal() * texture.roughness_rms_m
-        h, _ = signal.lfilter(
-            [texture.roughness_rms_m * math.sqrt(1 - a * a)], [1.0, -a], eps, zi=[a * h0]
-        )
+        h0 = rng.standard_normal() * rms
+        h, _ = signal.lfilter([rms * math.sqrt(1 - a * a)], [1.0, -a], eps, zi=[a * h0])
     for comp in texture.periodic:
         phase = rng.uniform(0, 2 * math.pi)
         h = h + comp.amplitude_m * np.cos(2 * math.pi * s / comp.wavelength_m + phase)
@@ -83,13 +108,21 @@ def felt_surface(
     start_m: float,
     stop_m: float,
     rng: np.random.Generator,
+    *,
+    contact_radius_m: float = 0.0,
 ) -> FeltSurface:
     """The felt surface over path coordinates ``start_m..stop_m`` (plus the fingerprint's
-    half-width on each side)."""
+    half-width on each side).
+
+    ``contact_radius_m`` is the radius of the skin's contact: each ridge touches the
+    surface along a chord of that circle across the sliding direction, and the random
+    roughness is averaged along the ridges' mean chord (0: a point contact, no averaging).
+    """
     offsets = ridge_offsets(finger)
     margin = float(np.abs(offsets).max()) + finger.ridge_width_m + 4 * GRID_M
     length = stop_m - start_m + 2 * margin
-    h = profile(texture, length, rng)
+    chords = 2.0 * np.sqrt(np.maximum(contact_radius_m**2 - offsets**2, 0.0))
+    h = profile(texture, length, rng, line_length_m=float(chords.mean()))
     # Each ridge averages over its contact width (moving box filter on the grid).
     width = max(1, round(finger.ridge_width_m / GRID_M))
     if width > 1:

@@ -411,3 +411,43 @@ def test_a_finger_that_loses_contact_raises():
     config = _with_material(FLAT, "wood", texture=grain)
     with pytest.raises(SimulationError, match=r"lost contact.*shape='square'"):
         synth.simulate("square", "wood", force_n=0.05, speed_mm_s=20.0, config=config)
+
+
+def test_line_average_variance_matches_a_simulated_average():
+    """The variance factor of roughness averaged along a ridge's line contact agrees with
+    averaging a simulated exponentially correlated profile over windows of that length,
+    and has the right limits (1 for a point, ~2 l / L for a long line)."""
+    corr = 40e-6
+    assert synth.texture.line_average_variance(corr, 0.0) == 1.0
+    assert synth.texture.line_average_variance(corr, 1e-9) == pytest.approx(1.0, abs=1e-4)
+    assert synth.texture.line_average_variance(corr, 1000 * corr) == pytest.approx(
+        2e-3, rel=0.01
+    )
+    rough = Texture(roughness_rms_m=1e-6, correlation_length_m=corr)
+    h = synth.texture.profile(rough, 2.0, np.random.default_rng(3))
+    for length in (100e-6, 400e-6, 2e-3):
+        w = round(length / synth.texture.GRID_M)
+        means = np.convolve(h, np.ones(w) / w, mode="valid")
+        expected = synth.texture.line_average_variance(corr, length)
+        assert np.var(means) / np.var(h) == pytest.approx(expected, rel=0.15), length
+
+
+def test_the_ridges_line_contact_averages_roughness_but_not_marks():
+    """Random roughness felt through a contact of radius a is smaller than a point's by
+    the line-average factor of the ridges' mean chord; periodic marks across the path are
+    felt in full."""
+    finger = SynthConfig().finger
+    rough = Texture(roughness_rms_m=2e-6, correlation_length_m=40e-6)
+    marks = Texture(0.0, 1e-4, periodic=(Periodic(wavelength_m=0.5e-3, amplitude_m=1e-6),))
+
+    def felt(texture, radius_m):
+        rng = np.random.default_rng(5)
+        return synth.texture.felt_surface(texture, finger, 0.0, 0.5, rng, contact_radius_m=radius_m)
+
+    a = 2.4e-3
+    offsets = synth.texture.ridge_offsets(finger)
+    chord = float(np.mean(2 * np.sqrt(a**2 - offsets**2)))
+    ratio = np.std(felt(rough, a).height_m) / np.std(felt(rough, 0.0).height_m)
+    assert ratio == pytest.approx(np.sqrt(synth.texture.line_average_variance(40e-6, chord)))
+    assert ratio < 0.2
+    np.testing.assert_array_equal(felt(marks, a).height_m, felt(marks, 0.0).height_m)
