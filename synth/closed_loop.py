@@ -110,9 +110,8 @@ class ClosedLoop:
         self.load_exp = np.array([t.friction.load_exponent for t in self.trials])
         self.scale = np.array([t.friction_scale for t in self.trials])
         self.dir = np.array([t.direction for t in self.trials])  # (b, 2)
-        self.origins, self.heights, self.slopes = texture_mod.stack_surfaces(
-            [t.surface for t in self.trials]
-        )
+        self.origins, heights, slopes = texture_mod.stack_surfaces([t.surface for t in self.trials])
+        self.texture_table = texture_mod.interpolation_table(heights, slopes)
         self.x_ref = np.stack([t.x_ref for t in self.trials])
         self.y_ref = np.stack([t.y_ref for t in self.trials])
         self.z_ref = np.array([t.z_ref0 for t in self.trials])
@@ -153,11 +152,11 @@ class ClosedLoop:
         b, base = self.b, self.models[0]
         nstate, nsens = initial_state.shape[1], base.nsensordata
         lay, cols = self.layout, self.cols
-        # Outputs laid out trial-major, (b, steps, ...); rollout writes each period into
-        # contiguous buffers that are copied in (small, cache-resident blocks).
-        sens_out = np.empty((b, nseg, k, nsens))
-        height_out = np.empty((b, nseg, k))
-        sens = np.empty((b, k, nsens))
+        # Rollout writes each period's sensors straight into its contiguous block of a
+        # period-major buffer; the outputs are turned trial-major, (b, steps, ...), once
+        # at the end.
+        sens_out = np.empty((nseg, b, k, nsens))
+        height_out = np.empty((nseg, b, k))
         control = np.zeros((b, k, lay["size"].stop))
         state_buf = np.empty((b, k, nstate))
         qpos_out = np.empty((b, nseg, k, self.nq)) if record_qpos else None
@@ -166,7 +165,9 @@ class ClosedLoop:
         state = np.ascontiguousarray(initial_state)
         warm = np.zeros((b, self.nv))
         qvel = slice(1 + self.nq, 1 + self.nq + self.nv)
-        frictions = [m.geom_friction for m in self.models]
+        # The skin's sliding coefficient in each model, as flat views (one store per model).
+        frictions = [m.geom_friction.reshape(-1) for m in self.models]
+        mu_at = self.skin * base.geom_friction.shape[1]
         warnings = [d.warning.number for d in datas]  # live views of the warning counters
         c_found = cols["contact"].start
         c_fz = c_found + 3
@@ -196,14 +197,13 @@ class ClosedLoop:
                 wrist_sum[:] = 0.0
                 self.z_ref += mot.control_period_s * self.gain * (wrist - self.force)
             # Friction from the simulated slip and load.
-            for arr, value in zip(frictions, self.friction(slip_speed, normal), strict=True):
-                arr[self.skin, 0] = value
+            for arr, value in zip(
+                frictions, self.friction(slip_speed, normal).tolist(), strict=True
+            ):
+                arr[mu_at] = value
             # Texture under the contact, extrapolated over the period.
-            h, slope = texture_mod.look_up2(
-                self.origins,
-                self.heights,
-                self.slopes,
-                s_now[:, None] + v_now[:, None] * ahead,
+            h, slope = texture_mod.look_up_table(
+                self.origins, self.texture_table, s_now[:, None] + v_now[:, None] * ahead
             )
             push = slope * -normal[:, None]
             fx = push * direction[:, :1]
@@ -216,13 +216,13 @@ class ClosedLoop:
             control[:, :, mx + 3] = radius * fy  # r x F at the contact, r = -R z
             control[:, :, mx + 4] = -radius * fx
             control[:, :, mz] = h
+            sens = sens_out[g]
             runner.rollout(self.models, datas, k, spec, state, warm, control, state_buf, sens, None)
-            sens_out[:, g] = sens
-            height_out[:, g] = h
+            height_out[g] = h
             if qpos_out is not None:
                 qpos_out[:, g] = state_buf[:, :, 1 : 1 + self.nq]
             if any(w.any() for w in warnings):
-                return sens_out.reshape(b, steps, nsens), height_out.reshape(b, steps)
+                return _trial_major(sens_out), _trial_major(height_out)
             state = state_buf[:, k - 1].copy()
             warm = (state_buf[:, k - 1, qvel] - state_buf[:, k - 2, qvel]) / dt
             # The state the next period's inputs respond to.
@@ -238,4 +238,10 @@ class ClosedLoop:
                 self.pieces.update(last[:, c_pad])
         if qpos_out is not None:
             self.qpos_ = qpos_out.reshape(b, steps, self.nq)
-        return sens_out.reshape(b, steps, nsens), height_out.reshape(b, steps)
+        return _trial_major(sens_out), _trial_major(height_out)
+
+
+def _trial_major(periods: np.ndarray) -> np.ndarray:
+    """``(periods, b, k, ...)`` -> contiguous ``(b, periods * k, ...)``."""
+    t = np.moveaxis(periods, 1, 0)
+    return np.ascontiguousarray(t).reshape(t.shape[0], t.shape[1] * t.shape[2], *t.shape[3:])

@@ -159,15 +159,30 @@ def look_up(origins: np.ndarray, table: np.ndarray, coordinate_m: np.ndarray) ->
     return table[rows, i0] * (1.0 - w) + table[rows, i0 + 1] * w
 
 
-def look_up2(
-    origins: np.ndarray, first: np.ndarray, second: np.ndarray, coordinate_m: np.ndarray
+def interpolation_table(heights: np.ndarray, slopes: np.ndarray) -> np.ndarray:
+    """Per grid cell ``(b, n - 1, 4)``: height at its start and its rise over the cell,
+    slope at its start and its rise, so that :func:`look_up_table` reads both quantities
+    with one gather per look-up."""
+    table = np.empty((heights.shape[0], heights.shape[1] - 1, 4))
+    table[..., 0] = heights[:, :-1]
+    table[..., 1] = heights[:, 1:] - heights[:, :-1]
+    table[..., 2] = slopes[:, :-1]
+    table[..., 3] = slopes[:, 1:] - slopes[:, :-1]
+    return table
+
+
+def look_up_table(
+    origins: np.ndarray, table: np.ndarray, coordinate_m: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`look_up` of two tables on the same grid at once."""
+    """(height, slope) of each trial at ``coordinate_m`` ``(b, k)`` from its
+    :func:`interpolation_table` row: the same values as :func:`look_up` of the height and
+    slope tables (clamped to the rows' ends, elementwise per trial)."""
+    cells = table.shape[1]
+    n = cells + 1  # grid points per row
     pos = (coordinate_m - origins[:, None]) * (1.0 / GRID_M)
-    np.clip(pos, 0.0, first.shape[1] - 1.000001, out=pos)
+    np.clip(pos, 0.0, n - 1.000001, out=pos)
     i0 = pos.astype(np.intp)
     w = pos - i0
-    flat = i0 + (np.arange(first.shape[0]) * first.shape[1])[:, None]
-    a0, a1 = first.ravel()[flat], first.ravel()[flat + 1]
-    b0, b1 = second.ravel()[flat], second.ravel()[flat + 1]
-    return a0 + (a1 - a0) * w, b0 + (b1 - b0) * w
+    i0 += (np.arange(table.shape[0]) * cells)[:, None]
+    c = table.reshape(-1, 4)[i0]
+    return c[..., 0] + c[..., 1] * w, c[..., 2] + c[..., 3] * w

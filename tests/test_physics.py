@@ -420,9 +420,7 @@ def test_line_average_variance_matches_a_simulated_average():
     corr = 40e-6
     assert synth.texture.line_average_variance(corr, 0.0) == 1.0
     assert synth.texture.line_average_variance(corr, 1e-9) == pytest.approx(1.0, abs=1e-4)
-    assert synth.texture.line_average_variance(corr, 1000 * corr) == pytest.approx(
-        2e-3, rel=0.01
-    )
+    assert synth.texture.line_average_variance(corr, 1000 * corr) == pytest.approx(2e-3, rel=0.01)
     rough = Texture(roughness_rms_m=1e-6, correlation_length_m=corr)
     h = synth.texture.profile(rough, 2.0, np.random.default_rng(3))
     for length in (100e-6, 400e-6, 2e-3):
