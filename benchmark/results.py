@@ -32,7 +32,7 @@ import json
 import math
 import os
 from collections.abc import Iterable, Iterator, Mapping, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import MISSING, dataclass, fields
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -115,12 +115,14 @@ class _Record(Mapping[str, Any]):
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> _Record:
         """The record of ``d`` (a results.json object of this kind); extra fields, which a
-        later version of the same schema may add, are ignored."""
-        missing = [k for k in cls._field_names() if k not in d]
+        later version of the same schema may add, are ignored, and an optional field
+        (one with a default) that ``d`` lacks takes its default."""
+        required = [f.name for f in fields(cls) if f.default is MISSING]  # type: ignore[arg-type]
+        missing = [k for k in required if k not in d]
         if missing:
             names = ", ".join(sorted(missing))
             raise ValueError(f"a {cls.kind!r} record lacks the field(s) {names}")
-        return cls(**{k: d[k] for k in cls._field_names()})
+        return cls(**{k: d[k] for k in cls._field_names() if k in d})
 
 
 def _fold(value: Any) -> int | str | None:
@@ -156,7 +158,9 @@ class AccuracyRecord(_Record):
 
 @dataclass(frozen=True, eq=False)
 class SelectionRecord(_Record):
-    """AFOP-ML's chosen D and the PVDF/SG shares of its top-D features, per fit."""
+    """AFOP-ML's chosen D, the PVDF/SG shares of its top-D features and, optionally, the
+    top-D features themselves (``selected``: indices into the 386-feature pool, best
+    ranked first; None in files that do not hold them), per fit."""
 
     kind: ClassVar[str] = "selection"
     protocol: str
@@ -164,6 +168,7 @@ class SelectionRecord(_Record):
     D: int
     pvdf_share: float
     sg_share: float
+    selected: list[int] | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -255,15 +260,25 @@ def accuracy_record(
 
 
 def selection_record(
-    *, protocol: str, fold: int | str | None, D: int, pvdf_share: float, sg_share: float
+    *,
+    protocol: str,
+    fold: int | str | None,
+    D: int,
+    pvdf_share: float,
+    sg_share: float,
+    selected: Sequence[int] | None = None,
 ) -> SelectionRecord:
-    """AFOP-ML's chosen D and the PVDF/SG shares of its top-D features."""
+    """AFOP-ML's chosen D, the PVDF/SG shares of its top-D features and the indices of
+    those features (``selected``, ``D`` of them, when given)."""
+    if selected is not None and len(selected) != int(D):
+        raise ValueError(f"selected must hold D = {D} feature indices; got {len(selected)}")
     return SelectionRecord(
         protocol=protocol,
         fold=_fold(fold),
         D=int(D),
         pvdf_share=float(pvdf_share),
         sg_share=float(sg_share),
+        selected=None if selected is None else [int(i) for i in selected],
     )
 
 
@@ -282,7 +297,12 @@ def tsne_record(
 
 
 def dscan_record(
-    *, protocol: str, D: Sequence[int], mean: Sequence[float], ci95: Sequence[float]
+    *,
+    protocol: str,
+    D: Sequence[int],
+    mean: Sequence[float],
+    ci95: Sequence[float],
+    fold: int | str | None = None,
 ) -> DscanRecord:
     """AFOP-ML's D-scan: validation accuracy (mean and 95 % CI half-width) per candidate D."""
     if not len(D) == len(mean) == len(ci95):
@@ -292,7 +312,7 @@ def dscan_record(
         )
     return DscanRecord(
         protocol=protocol,
-        fold=None,
+        fold=_fold(fold),
         D=[int(d) for d in D],
         mean=[float(x) for x in mean],
         ci95=[float(x) for x in ci95],

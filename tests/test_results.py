@@ -107,3 +107,25 @@ def test_select_matches_kind_and_every_field():
 def test_dscan_record_needs_one_entry_per_candidate():
     with pytest.raises(ValueError, match="one entry per candidate"):
         dscan_record(protocol="closed-set", D=[1, 2], mean=[0.5], ci95=[0.1, 0.1])
+
+
+def test_selection_records_carry_their_features_and_files_without_them_still_read(tmp_path):
+    sel = selection_record(
+        protocol="cross-shape", fold=1, D=2, pvdf_share=0.5, sg_share=0.5, selected=[7, 300]
+    )
+    assert sel.selected == [7, 300] and tuple(sel)[-1] == "selected"
+    with pytest.raises(ValueError, match="D = 3 feature indices"):
+        selection_record(
+            protocol="closed-set", fold=None, D=3, pvdf_share=1, sg_share=0, selected=[1]
+        )
+    path = write_results(tmp_path / "results.json", [sel])
+    assert read_results(path, typed=True)[0].selected == [7, 300]
+    # A selection record written without the optional field reads with selected = None.
+    old = {k: v for k, v in json.loads(path.read_text())[0].items() if k != "selected"}
+    path.write_text(json.dumps([old]))
+    (back,) = read_results(path, typed=True)
+    assert (back.D, back.selected) == (2, None)
+    # A required field is still required.
+    path.write_text(json.dumps([{k: v for k, v in old.items() if k != "D"}]))
+    with pytest.raises(ValueError, match="lacks the field"):
+        read_results(path, typed=True)
