@@ -49,6 +49,7 @@ from .results import (
     AccuracyRecord,
     Record,
     accuracy_record,
+    dscan_record,
     meta_curve_record,
     selection_record,
 )
@@ -199,8 +200,11 @@ def feature_dim(method: FewShotMethod) -> int | None:
 
 def fit_records(task: Task, name: str, method: FewShotMethod) -> list[Record]:
     """Records of what a fitted method exposes: AFOP-ML's selection (chosen D, PVDF/SG
-    shares of its top-D) and, for any method with ``meta_curve_``, its meta-training
-    validation curve (``meta_gradient`` as the method states it)."""
+    shares and indices of its top-D features) and its D-scan (the validation curve D was
+    chosen on) and, for any method with ``meta_curve_``, its meta-training validation
+    curve (``meta_gradient`` as the method states it). The interpretability analysis
+    (:func:`benchmark.interpret.analyse`) reads the closed-set fit's selection and D-scan
+    from these records, so it describes the very fit the protocols evaluated."""
     out: list[Record] = []
     if name == "AFOP-ML" and getattr(method, "selected_", None) is not None:
         from models.features import FEATURE_NAMES
@@ -215,8 +219,20 @@ def fit_records(task: Task, name: str, method: FewShotMethod) -> list[Record]:
                 D=int(method.D_),
                 pvdf_share=pvdf,
                 sg_share=sg,
+                selected=np.asarray(method.selected_).tolist(),
             )
         )
+        scan = getattr(method, "dscan_", None)
+        if scan is not None:
+            out.append(
+                dscan_record(
+                    protocol=task.protocol,
+                    fold=task.fold,
+                    D=np.asarray(scan["D"]).tolist(),
+                    mean=np.asarray(scan["mean"]).tolist(),
+                    ci95=np.asarray(scan["ci95"]).tolist(),
+                )
+            )
     curve = getattr(method, "meta_curve_", None)
     if curve is not None:
         out.append(
@@ -261,15 +277,17 @@ def _fit_groups(tasks: Sequence[Task]) -> list[list[Task]]:
 
 @dataclass(frozen=True)
 class Share:
-    """The tasks of task set ``set_index`` that one fit serves."""
+    """The tasks of task set ``set_index`` that one fit serves, for each of ``methods``."""
 
     set_index: int
     tasks: tuple[Task, ...]
+    methods: tuple[str, ...]
 
 
 @dataclass(frozen=True)
 class FitGroup:
-    """Tasks, of one or several task sets, that one fit of each of ``methods`` serves."""
+    """Tasks, of one or several task sets, that one fit of each of ``methods`` serves
+    (each share's tasks for the share's own methods, a subset of ``methods``)."""
 
     shares: tuple[Share, ...]
     methods: tuple[str, ...]
@@ -278,9 +296,11 @@ class FitGroup:
     def first(self) -> Task:
         return self.shares[0].tasks[0]
 
-    @property
-    def cells(self) -> int:
-        return sum(len(t.grid) for share in self.shares for t in share.tasks)
+    def cells_of(self, name: str) -> int:
+        """The cells the fit of method ``name`` is evaluated on."""
+        return sum(
+            len(t.grid) for share in self.shares if name in share.methods for t in share.tasks
+        )
 
 
 def _same_fit(a: Task, b: Task) -> bool:
@@ -302,8 +322,10 @@ def plan_fits(
     groups serving set ``i`` in that set's own order.
 
     Within a set, consecutive tasks with the same ``fit_key`` share a fit; across sets,
-    groups with the same ``fit_key``, fit seed, fit trials and methods share one too (the
-    perturbation protocol tests the closed-set fit on every force/speed condition).
+    groups with the same ``fit_key``, fit seed and fit trials share one too, each method
+    fitted once for every set that asks for it (the perturbation protocol tests the
+    closed-set fit on every force/speed condition, the closed-set reference curve is the
+    closed-set AFOP-ML fit's).
     """
     methods = check_methods(methods)
     groups: list[FitGroup] = []
@@ -313,10 +335,11 @@ def plan_fits(
         for members in _fit_groups(tasks):
             head = members[0]
             chosen = methods if head.methods is None else check_methods(head.methods)
-            share = Share(i, tuple(members))
+            share = Share(i, tuple(members), chosen)
             for g, group in enumerate(groups):
-                if group.methods == chosen and _same_fit(group.first, head):
-                    groups[g] = replace(group, shares=(*group.shares, share))
+                if _same_fit(group.first, head):
+                    union = (*group.methods, *(m for m in chosen if m not in group.methods))
+                    groups[g] = FitGroup((*group.shares, share), union)
                     order[i].append(g)
                     break
             else:
@@ -354,7 +377,8 @@ def run_fit(
     bar: tqdm | None = None,
     on_fit: Callable[[Task, str, FewShotMethod], None] | None = None,
 ) -> FitResult:
-    """Fit ``name`` once on the group's fit pool and evaluate every cell of its tasks."""
+    """Fit ``name`` once on the group's fit pool and evaluate every cell of the tasks of
+    the shares that ask for ``name`` (the other shares get empty results)."""
     first = group.first
     fit = first.fit
     method = make_method(name, seed=first.fit_seed)
@@ -365,6 +389,9 @@ def run_fit(
         on_fit(first, name, method)
     out = []
     for share in group.shares:
+        if name not in share.methods:
+            out.append(TaskResults([], []))
+            continue
         head = share.tasks[0]
         fits = fit_records(head, name, method) if head.fit_records else []
         scored: list[Scored] = []
@@ -400,7 +427,14 @@ def run_task_sets(
     features = features or Features()
     groups, order = plan_fits(task_sets, methods)
     jobs = [(g, name) for g, group in enumerate(groups) for name in group.methods]
-    left = [sum(len(groups[g].methods) for g in set_order) for set_order in order]
+
+    def share_of(g: int, i: int) -> int:
+        return next(k for k, share in enumerate(groups[g].shares) if share.set_index == i)
+
+    left = [
+        sum(len(groups[g].shares[share_of(g, i)].methods) for g in set_order)
+        for i, set_order in enumerate(order)
+    ]
     done: dict[tuple[int, str], FitResult] = {}
     results: list[TaskResults | None] = [None] * len(task_sets)
 
@@ -408,9 +442,8 @@ def run_task_sets(
         scored: list[Scored] = []
         fits: list[Record] = []
         for g in order[i]:
-            group = groups[g]
-            at = next(k for k, share in enumerate(group.shares) if share.set_index == i)
-            for name in group.methods:
+            at = share_of(g, i)
+            for name in groups[g].shares[at].methods:
                 part = done[(g, name)].shares[at]
                 scored += part.scored
                 fits += part.fits
@@ -419,6 +452,8 @@ def run_task_sets(
     def finished(job: tuple[int, str], result: FitResult) -> None:
         done[job] = result
         for share in groups[job[0]].shares:
+            if job[1] not in share.methods:
+                continue
             i = share.set_index
             left[i] -= 1
             if left[i] == 0:
@@ -432,7 +467,7 @@ def run_task_sets(
             if on_done is not None:
                 on_done(i, results[i])
 
-    total = sum(groups[g].cells for g, _ in jobs)
+    total = sum(groups[g].cells_of(name) for g, name in jobs)
     desc = task_sets[0][0].protocol if len(task_sets) == 1 and task_sets[0] else "benchmark"
     # disable=None: quiet when stderr is not a TTY.
     bar = tqdm(total=total, desc=desc, disable=None if progress else True, leave=False)
@@ -451,7 +486,7 @@ def run_task_sets(
             ):
                 finished((g, name), result)
                 bar.set_postfix_str(f"{name} {groups[g].first.protocol} {groups[g].first.name}")
-                bar.update(groups[g].cells)
+                bar.update(groups[g].cells_of(name))
     finally:
         bar.close()
     return SetResults(results, processes)  # type: ignore[arg-type]  # every set is complete

@@ -114,7 +114,12 @@ def _task(d: dict[str, Any], datasets: dict[str, Dataset]) -> Task:
 
 def _job_json(group: FitGroup, name: str, refs: dict[int, str]) -> str:
     shares = [
-        {"set": s.set_index, "tasks": [_task_json(t, refs) for t in s.tasks]} for s in group.shares
+        {
+            "set": s.set_index,
+            "tasks": [_task_json(t, refs) for t in s.tasks],
+            "methods": list(s.methods),
+        }
+        for s in group.shares
     ]
     return json.dumps({"method": name, "methods": list(group.methods), "shares": shares})
 
@@ -169,7 +174,8 @@ def _run_job(payload: str) -> str:
     features = Features(_opened.values())
     group = FitGroup(
         tuple(
-            Share(s["set"], tuple(_task(t, datasets) for t in s["tasks"])) for s in job["shares"]
+            Share(s["set"], tuple(_task(t, datasets) for t in s["tasks"]), tuple(s["methods"]))
+            for s in job["shares"]
         ),
         tuple(job["methods"]),
     )

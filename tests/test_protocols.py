@@ -36,7 +36,16 @@ ACCURACY_FIELDS = {
     "latency_episodes",
     "feature_dim",
 }
-SELECTION_FIELDS = {"record", "schema_version", "protocol", "fold", "D", "pvdf_share", "sg_share"}
+SELECTION_FIELDS = {
+    "record",
+    "schema_version",
+    "protocol",
+    "fold",
+    "D",
+    "pvdf_share",
+    "sg_share",
+    "selected",
+}
 
 
 class Spy(FewShotMethod):
@@ -83,6 +92,7 @@ def _check_schema(records):
         assert r["shot"] == 1 and 2 <= r["way"] <= 12
     for r in select(records, "selection"):
         assert set(r) == SELECTION_FIELDS
+        assert len(r["selected"]) == r["D"]
 
 
 def test_cross_shape_never_fits_on_test_shapes(data, spy):

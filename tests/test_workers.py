@@ -14,7 +14,7 @@ import time
 import pytest
 
 from benchmark import engine
-from benchmark.protocols.closed_set import ClosedSet
+from benchmark.protocols.closed_set import ClosedSet, Reference
 from benchmark.protocols.perturbation import Perturbation
 from benchmark.results import TIMING_FIELDS, to_json
 from models.base import FewShotMethod
@@ -60,13 +60,16 @@ def datasets():
     return make_dataset(trials_per_class=6, n_samples=400, noise=0.2), _perturbed()
 
 
-def _sets(datasets, episodes=6):
+def _sets(datasets, episodes=6, reference=False):
     data, pert = datasets
     budget = engine.EpisodeBudget(episodes)
-    return [
+    sets = [
         list(ClosedSet().tasks(data, None, seed=3, episodes=budget)),
         list(Perturbation().tasks(data, pert, seed=3, episodes=budget)),
     ]
+    if reference:
+        sets.append(list(Reference().tasks(data, None, seed=3, episodes=budget)))
+    return sets
 
 
 def _comparable(done: list[engine.TaskResults]) -> list:
@@ -95,6 +98,29 @@ def test_closed_set_and_perturbation_share_one_fit(datasets, monkeypatch):
     assert "pooled" in conditions and len(conditions) == len(sets[1])
 
 
+def test_the_reference_curve_is_evaluated_on_the_closed_set_fit(datasets, monkeypatch):
+    """The reference curve's set asks for AFOP-ML only and shares the closed-set group:
+    each method is fitted once, and the reference set gets AFOP-ML's records only."""
+    sets = _sets(datasets, reference=True)
+    counting = SPEC.format("Counting")
+    groups, order = engine.plan_fits(sets, [counting, "AFOP-ML"])
+    assert len(groups) == 1 and order == [[0], [0], [0]]
+    assert groups[0].methods == (counting, "AFOP-ML")
+    assert [s.methods for s in groups[0].shares] == [(counting, "AFOP-ML")] * 2 + [("AFOP-ML",)]
+    Counting.fits = 0
+    monkeypatch.setattr(engine, "make_method", lambda name, seed=0: Counting(seed=seed))
+    finished: list[int] = []
+    done = engine.run_task_sets(
+        sets, [counting, "AFOP-ML"], on_done=lambda i, _: finished.append(i)
+    ).sets
+    assert Counting.fits == 2 and sorted(finished) == [0, 1, 2]
+    assert {(s.record.method, s.record.condition) for s in done[2].scored} == {
+        ("AFOP-ML", "reference")
+    }
+    assert [s.record.way for s in done[2].scored] == list(range(2, 13))
+    assert {s.record.method for s in done[0].scored} == {counting, "AFOP-ML"}
+
+
 def test_sets_complete_in_their_own_order_of_records(datasets):
     """A set's records come in task, method, cell order, whatever set shares its fit."""
     sets = _sets(datasets)
@@ -106,7 +132,7 @@ def test_sets_complete_in_their_own_order_of_records(datasets):
 
 @pytest.mark.slow
 def test_worker_processes_give_the_records_of_one_process(datasets):
-    sets = _sets(datasets, episodes=8)
+    sets = _sets(datasets, episodes=8, reference=True)
     methods = ["AFOP-ML", "CNN", SPEC.format("Counting")]
     finished: list[int] = []
     threads.configure(1)  # the same threads per fit in this process as in each worker
@@ -119,7 +145,7 @@ def test_worker_processes_give_the_records_of_one_process(datasets):
         threads.configure()
     assert (here.processes, there.processes) == (1, 2)
     assert _comparable(there.sets) == _comparable(here.sets)
-    assert sorted(finished) == [0, 1]
+    assert sorted(finished) == [0, 1, 2]
     assert multiprocessing.active_children() == []
 
 
