@@ -2,7 +2,8 @@
 
 A checkpoint is ``{"key": ..., "records": [...]}``: the key is a SHA-256 of everything
 that determines the records (dataset fingerprints, methods, episode budget, seed,
-protocol), so a re-run with the same inputs reuses them and any change recomputes.
+protocol) and of :data:`LAYOUT`, so a re-run with the same inputs reuses them and any
+change recomputes.
 Records are written and read through :mod:`benchmark.results` (schema version checked,
 typed on load); a damaged or foreign file counts as no checkpoint.
 """
@@ -22,6 +23,12 @@ from synth import Dataset
 
 from .results import from_json, to_json
 
+#: Version of what a checkpoint's records hold (AFOP-ML's selection records with their
+#: selected features, a dscan record per AFOP-ML fit, the reference curve on the
+#: closed-set fit), part of the key: raise it when that changes, so that a resumed run
+#: recomputes checkpoints that lack what it reads.
+LAYOUT: int = 2
+
 
 def fingerprint(data: Dataset) -> str:
     """SHA-256 of a dataset's arrays (signals, labels, conditions, seeds): 16 hex chars."""
@@ -34,8 +41,9 @@ def fingerprint(data: Dataset) -> str:
 
 
 def key(inputs: Mapping[str, Any]) -> str:
-    """The checkpoint key of ``inputs`` (a JSON-serialisable mapping)."""
-    return hashlib.sha256(json.dumps(dict(inputs), sort_keys=True).encode()).hexdigest()
+    """The checkpoint key of ``inputs`` (a JSON-serialisable mapping) under :data:`LAYOUT`."""
+    payload = {"inputs": dict(inputs), "layout": LAYOUT}
+    return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
 
 
 def _path(out: Path, protocol: str) -> Path:

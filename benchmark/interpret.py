@@ -1,7 +1,7 @@
 """Interpretability (paper Section V-D): sensor shares of the selected features, a t-SNE of
 the closed-set top-D features and the paper's three indicators of Fig. 7, and
-:func:`analyse`, which produces them (with the D-scan and the closed-set reference curve)
-from the closed-set AFOP-ML fit.
+:func:`analyse`, which produces them (with the D-scan figure's data) from the records of
+the closed-set AFOP-ML fit the protocols evaluated.
 
 Indicator definitions (computed on the 2-D t-SNE embedding, as the paper's figure):
 
@@ -33,7 +33,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -163,8 +163,9 @@ def tsne_indicators(emb: np.ndarray, shape: np.ndarray, material: np.ndarray) ->
 class Artefacts:
     """In-memory results behind Fig. 7 and the D-scan figure (not in results.json rows).
 
-    dscan: AFOP-ML's ``dscan_`` (``D``, ``mean``, ``ci95`` arrays) or None; chosen_d: its D;
-    emb: ``(n, 2)`` t-SNE of the closed-set test half; shape, material: ``(n,)`` labels;
+    dscan: the closed-set AFOP-ML fit's D-scan (``D``, ``mean``, ``ci95`` lists of its
+    ``dscan`` record) or None; chosen_d: that fit's D; emb: ``(n, 2)`` t-SNE of the
+    closed-set test half in that fit's top-D features; shape, material: ``(n,)`` labels;
     indicators: the three Fig. 7 indicators; reference_episodes: episodes per way of the
     reference curve.
     """
@@ -179,54 +180,53 @@ class Artefacts:
 
 
 def analyse(
-    data: Dataset, *, features: Features, episodes: int, seed: int, progress: bool
+    data: Dataset,
+    records: Sequence[Mapping[str, Any]],
+    *,
+    features: Features,
+    episodes: int,
+    seed: int,
 ) -> tuple[list[Record], Artefacts]:
-    """The closed-set AFOP-ML fit (:class:`benchmark.protocols.closed_set.Reference`, run
-    by the engine): its reference-curve records, a ``dscan`` record, and the t-SNE of the
-    closed-set test half in its top-D space with the indicators (``tsne`` record)."""
-    from .engine import run_protocol
-    from .protocols.closed_set import Reference
-    from .results import dscan_record, tsne_record
+    """The interpretability analysis of the closed-set AFOP-ML fit of ``records`` (the
+    protocols' records of a run with ``seed``: the fit's ``selection`` record, with its
+    ``selected`` features, and its ``dscan`` record): the t-SNE of the closed-set test
+    half in its top-D features with the indicators (the returned ``tsne`` record), and
+    the artefacts of the D-scan and t-SNE figures. Nothing is fitted here, so the D-scan,
+    the t-SNE and the report's closed-set D and shares all describe one fit.
 
-    fitted: list = []
-    reference = Reference()
-    records: list[Record] = run_protocol(
-        reference,
-        data,
-        methods=["AFOP-ML"],
-        episodes=episodes,
-        seed=seed,
-        progress=progress,
-        features=features,
-        on_fit=lambda task, _name, model: fitted.append((task, model)),
-    )
-    task, model = fitted[0]
-    dscan = getattr(model, "dscan_", None)
-    if dscan is not None:
-        records.append(
-            dscan_record(
-                protocol=task.protocol,
-                D=np.asarray(dscan["D"]).tolist(),
-                mean=np.asarray(dscan["mean"]).tolist(),
-                ci95=np.asarray(dscan["ci95"]).tolist(),
-            )
+    episodes: episodes per way of the reference curve (for the figure notes).
+    """
+    from .protocols.closed_set import PROTOCOL
+    from .results import select, tsne_record
+    from .splits import split_halves
+
+    sel = select(records, "selection", protocol=PROTOCOL, fold=None)
+    if len(sel) != 1 or sel[0].get("selected") is None:
+        raise ValueError(
+            "the interpretability analysis needs the closed-set AFOP-ML fit's selection "
+            f"record with its selected features; got {len(sel)} closed-set selection "
+            f"record(s){' without selected' if len(sel) == 1 else ''}"
         )
-    test = task.test.index
-    top = features.of(data)[test][:, np.asarray(model.selected_)]
+    chosen_d = int(sel[0]["D"])
+    selected = np.asarray(sel[0]["selected"], dtype=np.intp)
+    scans = select(records, "dscan", protocol=PROTOCOL, fold=None)
+    dscan = {k: list(scans[0][k]) for k in ("D", "mean", "ci95")} if scans else None
+    test = split_halves(data.label, seed=seed)[1]
+    top = features.of(data)[test][:, selected]
     emb = tsne_embedding(top, seed=seed)
     ind = tsne_indicators(emb, data.shape[test], data.material[test])
-    records.append(
+    out: list[Record] = [
         tsne_record(
-            protocol=task.protocol,
-            D=int(model.D_),
+            protocol=PROTOCOL,
+            D=chosen_d,
             nn1_shape_accuracy=ind.nn1_shape_accuracy,
             mix_sil=ind.mix_sil,
             dgi=ind.dgi,
         )
-    )
+    ]
     art = Artefacts(
         dscan=dscan,
-        chosen_d=int(model.D_),
+        chosen_d=chosen_d,
         emb=emb,
         shape=np.asarray(data.shape[test]),
         material=np.asarray(data.material[test]),
@@ -237,4 +237,4 @@ def analyse(
         },
         reference_episodes=episodes,
     )
-    return records, art
+    return out, art

@@ -9,7 +9,8 @@ column also times :data:`LATENCY_EPISODES` episodes one at a time (the paper's T
 
 :class:`Reference` is the closed-set AFOP-ML 1-shot 2..12-way curve on the same halves
 (``condition="reference"``), the dashed line the generalisation protocols are read
-against (paper Fig. 5).
+against (paper Fig. 5). Its task carries the closed-set fit key and fit seed, so a run
+that has both evaluates the curve on the closed-set AFOP-ML fit itself.
 """
 
 from __future__ import annotations
@@ -31,8 +32,9 @@ PROTOCOL = "closed-set"
 LATENCY_EPISODES = 10
 
 
-#: The fit key of the closed-set training half: the perturbation protocol's tasks carry it
-#: too, so a run fits each method once on that half and tests both protocols on the fit.
+#: The fit key of the closed-set training half: the perturbation protocol's and the
+#: reference curve's tasks carry it too, so a run fits each method once on that half and
+#: tests every one of them on the fit.
 FIT_KEY = "closed-set training half"
 
 
@@ -90,9 +92,11 @@ class ClosedSet(Protocol):
 
 
 class Reference(Protocol):
-    """AFOP-ML fitted on the closed-set training half, 1-shot 2..12-way on the test half,
-    ``episodes.default`` episodes per way whatever the requested methods; its fit gives
-    no selection record (the closed-set protocol's own fit does)."""
+    """AFOP-ML fitted on the closed-set training half with the closed-set fit seed (the
+    closed-set fit, shared when the closed-set or perturbation protocol runs in the same
+    queue of fits), 1-shot 2..12-way on the test half, ``episodes.default`` episodes per
+    way whatever the requested methods; its share of the fit gives no selection record
+    (the closed-set protocol's own share does)."""
 
     name = "closed-set reference"
 
@@ -109,7 +113,8 @@ class Reference(Protocol):
                 test=Pool(data, test),
                 grid=curve_grid(seed, PROTOCOL, 0),
                 episodes=EpisodeBudget(episodes.default),
-                fit_seed=child_seed(seed, PROTOCOL, 0, "fit"),
+                fit_seed=fit_seed(seed),
+                fit_key=FIT_KEY,
                 methods=("AFOP-ML",),
                 fit_records=False,
             )
