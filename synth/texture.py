@@ -175,8 +175,9 @@ def look_up_table(
     origins: np.ndarray, table: np.ndarray, coordinate_m: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """(height, slope) of each trial at ``coordinate_m`` ``(b, k)`` from its
-    :func:`interpolation_table` row: the same values as :func:`look_up` of the height and
-    slope tables (clamped to the rows' ends, elementwise per trial)."""
+    :func:`interpolation_table` row: linear interpolation between grid points as in
+    :func:`look_up` (clamped to the rows' ends, elementwise per trial), written as
+    ``start + rise * w``, so values can differ from :func:`look_up`'s in the last bit."""
     cells = table.shape[1]
     n = cells + 1  # grid points per row
     pos = (coordinate_m - origins[:, None]) * (1.0 / GRID_M)
