@@ -106,12 +106,14 @@ class ClosedLoop:
         self.gain = np.array([force_loop_gain_m_per_n_s(config, t.force_n) for t in self.trials])
         self.kinetic = np.array([t.friction.kinetic for t in self.trials])
         self.static = np.array([t.friction.static for t in self.trials])
+        self.static_excess = self.static - self.kinetic
         self.v_stribeck = np.array([t.friction.stribeck_velocity_m_s for t in self.trials])
         self.load_exp = np.array([t.friction.load_exponent for t in self.trials])
         self.scale = np.array([t.friction_scale for t in self.trials])
         self.dir = np.array([t.direction for t in self.trials])  # (b, 2)
-        self.origins, heights, slopes = texture_mod.stack_surfaces([t.surface for t in self.trials])
-        self.texture_table = texture_mod.interpolation_table(heights, slopes)
+        self.texture = texture_mod.TextureTable(
+            *texture_mod.stack_surfaces([t.surface for t in self.trials])
+        )
         self.x_ref = np.stack([t.x_ref for t in self.trials])
         self.y_ref = np.stack([t.y_ref for t in self.trials])
         self.z_ref = np.array([t.z_ref0 for t in self.trials])
@@ -127,7 +129,7 @@ class ClosedLoop:
         """Coefficient of each trial's law at its slip speed and normal load."""
         f = np.maximum(normal_n, 0.05)
         weak = np.exp(-np.square(slip_speed / self.v_stribeck))
-        return (self.kinetic + (self.static - self.kinetic) * weak) * f**self.load_exp * self.scale
+        return (self.kinetic + self.static_excess * weak) * f**self.load_exp * self.scale
 
     def run(
         self,
@@ -160,8 +162,9 @@ class ClosedLoop:
         control = np.zeros((b, k, lay["size"].stop))
         state_buf = np.empty((b, k, nstate))
         qpos_out = np.empty((b, nseg, k, self.nq)) if record_qpos else None
-        x_seg = self.x_ref[:, :steps].reshape(b, nseg, k)
-        y_seg = self.y_ref[:, :steps].reshape(b, nseg, k)
+        # The x/y servo set points of every period, laid out as the control's columns.
+        xy_seg = np.stack([self.x_ref[:, :steps], self.y_ref[:, :steps]], axis=-1)
+        xy_seg = xy_seg.reshape(b, nseg, k, 2)
         state = np.ascontiguousarray(initial_state)
         warm = np.zeros((b, self.nv))
         qvel = slice(1 + self.nq, 1 + self.nq + self.nv)
@@ -171,13 +174,15 @@ class ClosedLoop:
         warnings = [d.warning.number for d in datas]  # live views of the warning counters
         c_found = cols["contact"].start
         c_fz = c_found + 3
-        c_skin = slice(cols["skin_pos"].start, cols["skin_pos"].start + 2)
-        c_slip = slice(cols["slip_vel"].start, cols["slip_vel"].start + 2)
+        c_skin, c_slip = cols["skin_pos"].start, cols["slip_vel"].start  # their x columns
         c_wrist = cols["drive_force"].start
         c_pad = slice(cols["pad_pos"].start, cols["pad_pos"].start + 2)
         mx, mz = lay["pad_wrench"].start, lay["mocap_pos"].start + 2
         direction = self.dir
+        dir_x, dir_y = direction[:, 0], direction[:, 1]
         ahead = np.arange(1, k + 1) * dt
+        # The pad wrench's torque r x F at the contact (r = -R z): (R F_y, -R F_x).
+        lever = np.array([radius, -radius])
 
         # Before the first period: the pad rests at the start, loaded by the set force.
         s_now = self.x_ref[:, 0] * direction[:, 0] + self.y_ref[:, 0] * direction[:, 1]
@@ -202,19 +207,13 @@ class ClosedLoop:
             ):
                 arr[mu_at] = value
             # Texture under the contact, extrapolated over the period.
-            h, slope = texture_mod.look_up_table(
-                self.origins, self.texture_table, s_now[:, None] + v_now[:, None] * ahead
-            )
+            h, slope = self.texture(s_now[:, None] + v_now[:, None] * ahead)
             push = slope * -normal[:, None]
-            fx = push * direction[:, :1]
-            fy = push * direction[:, 1:]
-            control[:, :, 0] = x_seg[:, g]
-            control[:, :, 1] = y_seg[:, g]
+            force = push[:, :, None] * direction[:, None, :]  # (b, k, 2): F_x, F_y
+            control[:, :, 0:2] = xy_seg[:, g]
             control[:, :, 2] = self.z_ref[:, None]
-            control[:, :, mx] = fx
-            control[:, :, mx + 1] = fy
-            control[:, :, mx + 3] = radius * fy  # r x F at the contact, r = -R z
-            control[:, :, mx + 4] = -radius * fx
+            control[:, :, mx : mx + 2] = force
+            control[:, :, mx + 3 : mx + 5] = force[:, :, ::-1] * lever
             control[:, :, mz] = h
             sens = sens_out[g]
             runner.rollout(self.models, datas, k, spec, state, warm, control, state_buf, sens, None)
@@ -229,10 +228,10 @@ class ClosedLoop:
             last = sens[:, k - 1]
             found = last[:, c_found] > 0
             normal = np.where(found, -last[:, c_fz], 0.0)
-            s_now = (last[:, c_skin] * direction).sum(axis=1)
-            slip = last[:, c_slip]
-            v_now = (slip * direction).sum(axis=1)
-            slip_speed = np.hypot(slip[:, 0], slip[:, 1])
+            s_now = last[:, c_skin] * dir_x + last[:, c_skin + 1] * dir_y
+            slip_x, slip_y = last[:, c_slip], last[:, c_slip + 1]
+            v_now = slip_x * dir_x + slip_y * dir_y
+            slip_speed = np.hypot(slip_x, slip_y)
             wrist_sum -= sens[:, :, c_wrist].sum(axis=1)
             if self.pieces is not None:
                 self.pieces.update(last[:, c_pad])

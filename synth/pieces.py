@@ -59,6 +59,21 @@ class Outline:
     def n_pieces(self) -> int:
         return int(self.starts.size)
 
+    @functools.cached_property
+    def edges(self) -> np.ndarray:
+        """``(s, 2)`` each segment's vector, ``seg_b - seg_a``."""
+        return self.seg_b - self.seg_a
+
+    @functools.cached_property
+    def edge_sq(self) -> np.ndarray:
+        """``(s,)`` each segment's squared length."""
+        return (self.edges * self.edges).sum(axis=1)
+
+    @functools.cached_property
+    def previous(self) -> np.ndarray:
+        """``(s,)`` index of the segment before each one along the outline."""
+        return np.roll(np.arange(self.seg_a.shape[0]), 1)
+
 
 @functools.lru_cache(maxsize=16)
 def outline_pieces(shape: str) -> Outline | None:
@@ -99,26 +114,30 @@ def outline_pieces(shape: str) -> Outline | None:
 def touchable(outline: Outline, centre: np.ndarray, reach_m: float) -> np.ndarray:
     """Boolean ``(b, n_pieces)``: the pieces carrying a distinct region of the surface
     that a skin sphere centred above ``centre`` ``(b, 2)`` can touch (module docstring)."""
-    b = centre.shape[0]
-    out = np.zeros((b, outline.n_pieces), dtype=bool)
-    # Inside a piece: every edge's half-plane holds (the largest excess is <= 0).
+    # Inside a piece: every edge's half-plane holds (the largest excess is <= 0). On a seam
+    # the centre is inside both neighbours; the first of them is chosen.
     excess = centre @ outline.normals.T - outline.offsets
     worst = np.maximum.reduceat(excess, outline.starts, axis=1)  # (b, n_pieces)
     inside = worst <= 0.0
-    above = inside.any(axis=1)
-    rows = np.flatnonzero(above)
-    out[rows, np.argmax(inside[rows], axis=1)] = True
-    # Outside: local minima of the distance along the outline, within reach.
-    edge = outline.seg_b - outline.seg_a  # (s, 2)
-    rel = centre[:, None, :] - outline.seg_a[None]  # (b, s, 2)
-    t = (rel * edge).sum(axis=2) / (edge * edge).sum(axis=1)
-    foot = outline.seg_a + np.clip(t, 0.0, 1.0)[..., None] * edge
-    near = np.hypot(*(centre[:, None, :] - foot).transpose(2, 0, 1)) < reach_m
+    out = inside & (np.cumsum(inside, axis=1) == 1)
+    above = out.any(axis=1)
+    # Outside (the other trials): local minima of the distance along the outline, within
+    # reach. Per trial and segment: the foot of the perpendicular at parameter t along the
+    # segment, clamped to it.
+    rows = np.flatnonzero(~above)
+    if rows.size == 0:
+        return out
+    a, edge = outline.seg_a, outline.edges
+    cx, cy = centre[rows, 0:1], centre[rows, 1:2]  # (r, 1)
+    t = ((cx - a[:, 0]) * edge[:, 0] + (cy - a[:, 1]) * edge[:, 1]) / outline.edge_sq
+    clamped = np.minimum(np.maximum(t, 0.0), 1.0)
+    gap_x = cx - (a[:, 0] + clamped * edge[:, 0])
+    gap_y = cy - (a[:, 1] + clamped * edge[:, 1])
+    near = np.hypot(gap_x, gap_y) < reach_m
     interior = (t > 0.0) & (t < 1.0)
-    corner = (t <= 0.0) & (np.roll(t, 1, axis=1) >= 1.0)  # both sides end at vertex a
-    hit = near & (interior | corner) & ~above[:, None]
-    trial, seg = np.nonzero(hit)
-    out[trial, outline.seg_piece[seg]] = True
+    corner = (t <= 0.0) & (t[:, outline.previous] >= 1.0)  # both sides end at vertex a
+    trial, seg = np.nonzero(near & (interior | corner))
+    out[rows[trial], outline.seg_piece[seg]] = True
     return out
 
 

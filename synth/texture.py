@@ -159,31 +159,36 @@ def look_up(origins: np.ndarray, table: np.ndarray, coordinate_m: np.ndarray) ->
     return table[rows, i0] * (1.0 - w) + table[rows, i0 + 1] * w
 
 
-def interpolation_table(heights: np.ndarray, slopes: np.ndarray) -> np.ndarray:
-    """Per grid cell ``(b, n - 1, 4)``: height at its start and its rise over the cell,
-    slope at its start and its rise, so that :func:`look_up_table` reads both quantities
-    with one gather per look-up."""
-    table = np.empty((heights.shape[0], heights.shape[1] - 1, 4))
-    table[..., 0] = heights[:, :-1]
-    table[..., 1] = heights[:, 1:] - heights[:, :-1]
-    table[..., 2] = slopes[:, :-1]
-    table[..., 3] = slopes[:, 1:] - slopes[:, :-1]
-    return table
+class TextureTable:
+    """A batch's felt surfaces, ready for many look-ups: per grid cell the height at its
+    start and its rise over the cell, the slope at its start and its rise, so that one
+    gather reads both quantities.
 
+    origins, heights, slopes: as :func:`stack_surfaces` returns them. Calling the table
+    with path coordinates ``(b, k)`` gives each trial's ``(height, slope)`` there, by
+    linear interpolation between grid points as in :func:`look_up` (clamped to the rows'
+    ends, elementwise per trial) written as ``start + rise * w``, so values can differ
+    from :func:`look_up`'s in the last bit.
+    """
 
-def look_up_table(
-    origins: np.ndarray, table: np.ndarray, coordinate_m: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """(height, slope) of each trial at ``coordinate_m`` ``(b, k)`` from its
-    :func:`interpolation_table` row: linear interpolation between grid points as in
-    :func:`look_up` (clamped to the rows' ends, elementwise per trial), written as
-    ``start + rise * w``, so values can differ from :func:`look_up`'s in the last bit."""
-    cells = table.shape[1]
-    n = cells + 1  # grid points per row
-    pos = (coordinate_m - origins[:, None]) * (1.0 / GRID_M)
-    np.clip(pos, 0.0, n - 1.000001, out=pos)
-    i0 = pos.astype(np.intp)
-    w = pos - i0
-    i0 += (np.arange(table.shape[0]) * cells)[:, None]
-    c = table.reshape(-1, 4)[i0]
-    return c[..., 0] + c[..., 1] * w, c[..., 2] + c[..., 3] * w
+    def __init__(self, origins: np.ndarray, heights: np.ndarray, slopes: np.ndarray) -> None:
+        b, n = heights.shape
+        cells = np.empty((b, n - 1, 4))
+        cells[..., 0] = heights[:, :-1]
+        cells[..., 1] = heights[:, 1:] - heights[:, :-1]
+        cells[..., 2] = slopes[:, :-1]
+        cells[..., 3] = slopes[:, 1:] - slopes[:, :-1]
+        self._cells = cells.reshape(-1, 4)
+        self._origins = np.asarray(origins, dtype=float)[:, None]
+        self._row_start = (np.arange(b) * (n - 1))[:, None]  # first cell of each row
+        self._last = n - 1.000001  # clamp just inside the last cell
+
+    def __call__(self, coordinate_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        pos = (coordinate_m - self._origins) * (1.0 / GRID_M)
+        np.maximum(pos, 0.0, out=pos)
+        np.minimum(pos, self._last, out=pos)
+        i0 = pos.astype(np.intp)
+        w = pos - i0
+        i0 += self._row_start
+        c = self._cells[i0]
+        return c[..., 0] + c[..., 1] * w, c[..., 2] + c[..., 3] * w
