@@ -1,17 +1,20 @@
 """Simulator speed: raw MuJoCo rollout vs end-to-end ``simulate_batch`` on the same trials.
 
-    python3 scripts/bench_sim.py [--trials-per-class 10] [--threads 1]
+    python3 scripts/bench_sim.py [--trials-per-class 10] [--threads 1] [--repeat 3]
 
 Reports physics steps/s of the bare rollout, end-to-end trials/s, CPU seconds per 2 s
 trial, and the end-to-end overhead over the raw rollout (targets: <= 25 %, <= 60 ms CPU
-per trial). The default of 10 trials per class gives rollout batches of 30 trials per
-shape, about the size of a generation chunk (36 trials of the paper preset); smaller
-batches pay the closed loop's fixed cost per update period over fewer trials.
+per trial), per round and as the median over the rounds; raw and end-to-end runs
+alternate so that a drift of the machine's speed does not pass for overhead. The default
+of 10 trials per class gives rollout batches of 30 trials per shape, about the size of a
+generation chunk (36 trials of the paper preset); smaller batches pay the closed loop's
+fixed cost per update period over fewer trials.
 """
 
 from __future__ import annotations
 
 import argparse
+import statistics
 import time
 
 import synth
@@ -24,7 +27,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--trials-per-class", type=int, default=10)
     parser.add_argument("--threads", type=int, default=1)
+    parser.add_argument(
+        "--repeat", type=int, default=3, help="end-to-end runs, each between two raw ones"
+    )
     args = parser.parse_args()
+    for name in ("trials_per_class", "threads", "repeat"):
+        if getattr(args, name) < 1:
+            parser.error(f"--{name.replace('_', '-')} must be at least 1")
     config = synth.SynthConfig()
     specs = [
         TrialSpec(s, m, seed=i)
@@ -35,28 +44,49 @@ def main() -> None:
     synth.simulate_batch([TrialSpec(s, "wood") for s in SHAPE_NAMES], threads=1)  # warm caches
 
     # Raw physics: the same scenes and step counts, one open-loop rollout call per chunk
-    # (no controller, texture, sensor chain or checks).
-    cpu0 = time.process_time()
-    raw_wall = simulator.raw_rollout(specs, config=config, threads=args.threads)
-    raw_cpu = time.process_time() - cpu0
+    # (no controller, texture, sensor chain or checks). Raw and end-to-end runs alternate,
+    # and each end-to-end run is compared with the mean of the raw runs just before and
+    # just after it: a shared machine's speed drifts over minutes, and a ratio of two
+    # runs far apart in time measures the drift as much as the overhead.
+    def raw() -> tuple[float, float]:
+        cpu0 = time.process_time()
+        wall = simulator.raw_rollout(specs, config=config, threads=args.threads)
+        return wall, time.process_time() - cpu0
 
-    wall0, cpu0 = time.perf_counter(), time.process_time()
-    trials = synth.simulate_batch(specs, config=config, threads=args.threads)
-    e2e_wall, e2e_cpu = time.perf_counter() - wall0, time.process_time() - cpu0
+    def end_to_end() -> tuple[float, float]:
+        wall0, cpu0 = time.perf_counter(), time.process_time()
+        trials = synth.simulate_batch(specs, config=config, threads=args.threads)
+        assert len(trials) == len(specs)
+        return time.perf_counter() - wall0, time.process_time() - cpu0
+
+    raws, e2es = [raw()], []
+    for _ in range(args.repeat):
+        e2es.append(end_to_end())
+        raws.append(raw())
 
     n = len(specs)
     steps = sum(simulator.plan(s, config).steps for s in specs)
     print(f"{n} trials, {steps / n:.0f} steps each on average, {args.threads} rollout thread(s)")
+    ratios, cpu_ratios = [], []
+    for i, (e2e_wall, e2e_cpu) in enumerate(e2es):
+        raw_wall = (raws[i][0] + raws[i + 1][0]) / 2
+        raw_cpu = (raws[i][1] + raws[i + 1][1]) / 2
+        ratios.append(e2e_wall / raw_wall)
+        cpu_ratios.append(e2e_cpu / raw_cpu)
+        print(
+            f"round {i + 1}: raw rollout {raw_wall:6.2f} s wall {steps / raw_wall:9.0f} steps/s "
+            f"{raw_cpu / n * 1e3:5.1f} ms CPU per trial | simulate_batch {e2e_wall:6.2f} s wall "
+            f"{n / e2e_wall:5.1f} trials/s {e2e_cpu / n * 1e3:5.1f} ms CPU per trial | "
+            f"{(ratios[-1] - 1) * 100:+.1f}% wall"
+        )
+    e2e_cpu = statistics.median(c for _, c in e2es)
+    raw_cpu = statistics.median(c for _, c in raws)
     print(
-        f"raw rollout:    {raw_wall:6.2f} s wall  {steps / raw_wall:9.0f} steps/s  "
-        f"{raw_cpu / n * 1e3:5.1f} ms CPU per trial"
+        f"median over {args.repeat} round(s): simulate_batch {e2e_cpu / n * 1e3:.1f} ms CPU per "
+        f"trial (raw rollout {raw_cpu / n * 1e3:.1f} ms); overhead over raw rollout "
+        f"{(statistics.median(ratios) - 1) * 100:+.1f}% wall, "
+        f"{(statistics.median(cpu_ratios) - 1) * 100:+.1f}% CPU"
     )
-    print(
-        f"simulate_batch: {e2e_wall:6.2f} s wall  {n / e2e_wall:6.1f} trials/s  "
-        f"{e2e_cpu / n * 1e3:5.1f} ms CPU per trial"
-    )
-    print(f"overhead over raw rollout: {(e2e_wall / raw_wall - 1) * 100:+.1f}% (wall)")
-    assert len(trials) == n
 
 
 if __name__ == "__main__":
