@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 import ctypes
-import ctypes.util
 import json
 import os
 import resource
@@ -48,8 +47,9 @@ def _reset_peak_rss() -> bool:
     package keeps freed memory for reuse) and reset this process's peak resident size
     (Linux), so that the generation's peak is its own; False where unsupported."""
     try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
-        libc.malloc_trim(0)
+        # By its soname: ctypes.util.find_library runs a subprocess, which would start with
+        # this process's resident size as its peak and count as the largest worker.
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
     except (OSError, AttributeError):  # not glibc
         pass
     try:

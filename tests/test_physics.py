@@ -449,3 +449,31 @@ def test_the_ridges_line_contact_averages_roughness_but_not_marks():
     assert ratio == pytest.approx(np.sqrt(synth.texture.line_average_variance(40e-6, chord)))
     assert ratio < 0.2
     np.testing.assert_array_equal(felt(marks, a).height_m, felt(marks, 0.0).height_m)
+
+
+def test_the_texture_table_interpolates_as_look_up_does():
+    """The closed loop's texture table gives each trial's own height and slope at its own
+    coordinates, as the plain interpolation does (to the last bits), clamped at the ends."""
+    rng = np.random.default_rng(3)
+    b, n = 5, 200
+    origins = rng.uniform(-1e-3, 1e-3, b)
+    heights = rng.normal(0.0, 1e-6, (b, n))
+    slopes = rng.normal(0.0, 1e-2, (b, n))
+    grid = synth.texture.GRID_M
+    # Inside the rows, off their start and past their end.
+    coord = origins[:, None] + rng.uniform(-5 * grid, (n + 5) * grid, (b, 7))
+    table = synth.texture.TextureTable(origins, heights, slopes)
+    h, s = table(coord.copy())
+    assert h.shape == s.shape == (b, 7)
+    np.testing.assert_allclose(
+        h, synth.texture.look_up(origins, heights, coord), rtol=1e-12, atol=1e-18
+    )
+    np.testing.assert_allclose(
+        s, synth.texture.look_up(origins, slopes, coord), rtol=1e-12, atol=1e-14
+    )
+    # A trial's values do not depend on the rest of the batch.
+    h1, s1 = synth.texture.TextureTable(origins[2:3], heights[2:3], slopes[2:3])(coord[2:3])
+    assert np.array_equal(h1, h[2:3]) and np.array_equal(s1, s[2:3])
+    # Clamped: before the first grid point the first value holds.
+    before = np.full((b, 1), -1.0)
+    assert np.allclose(table(before)[0][:, 0], heights[:, 0], rtol=0, atol=1e-18)
