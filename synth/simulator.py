@@ -301,8 +301,9 @@ def _describe(spec: TrialSpec) -> str:
 def _initial_states(plans: Sequence[Plan]) -> np.ndarray:
     out = []
     lay = scene_mod.control_layout(plans[0].model)
+    data = mujoco.MjData(plans[0].model)  # the plans share one scene: one data, reset per plan
     for p in plans:
-        data = mujoco.MjData(p.model)
+        mujoco.mj_resetData(p.model, data)
         data.qpos[:] = p.initial_qpos
         control = np.zeros(lay["size"].stop)
         control[lay["ctrl"]] = (p.loop.x_ref[0], p.loop.y_ref[0], p.loop.z_ref0)
@@ -335,10 +336,9 @@ def _roll(
     return sens, heights
 
 
-def _unrock(vectors: np.ndarray, pitch: np.ndarray) -> np.ndarray:
+def _unrock(vectors: np.ndarray, c: np.ndarray, s: np.ndarray) -> np.ndarray:
     """Vectors ``(..., 3)`` in the pad's frame, expressed in the phalanx's (rotation by
-    the pad's pitch about y)."""
-    c, s = np.cos(pitch), np.sin(pitch)
+    the pad's pitch about y, given by its cosine ``c`` and sine ``s``)."""
     x, y, z = vectors[..., 0], vectors[..., 1], vectors[..., 2]
     return np.stack([c * x + s * z, y, c * z - s * x], axis=-1)
 
@@ -358,9 +358,10 @@ def _process(
     depth = sens[..., cols["contact_depth"]]
     # The mount's force sensor turns with the rocking pad; the gauges' phalanx does not.
     pitch = sens[..., cols["pad_pitch"].start]
+    cos_pitch, sin_pitch = np.cos(pitch), np.sin(pitch)
     mech = sensors.Mechanics(
-        mount_force=_unrock(sens[..., cols["mount_force"]], pitch),
-        mount_torque=_unrock(sens[..., cols["mount_torque"]], pitch),
+        mount_force=_unrock(sens[..., cols["mount_force"]], cos_pitch, sin_pitch),
+        mount_torque=_unrock(sens[..., cols["mount_torque"]], cos_pitch, sin_pitch),
         contact_ahead_m=np.where(found, (rel * direction).sum(axis=-1), 0.0),
         indentation_m=np.where(depth[..., 0] > 0, np.maximum(-depth[..., 1], 0.0), 0.0),
     )
