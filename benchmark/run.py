@@ -136,8 +136,18 @@ class ProtocolRuns(NamedTuple):
     processes: int
 
 
+#: The report's thread line when every protocol came from its checkpoint.
+NO_FITS_LINE = (
+    "no fits ran in this invocation: every protocol's records came from its checkpoint "
+    "(the settings of the run that computed them are not recorded)"
+)
+
+
 def threads_line(processes: int) -> str:
-    """The report's thread line: the settings the fits ran with."""
+    """The report's thread line: the settings the fits ran with (``processes`` 0: no fit
+    ran, so there are no settings of this invocation to report)."""
+    if processes == 0:
+        return NO_FITS_LINE
     if processes > 1:
         return f"{describe_threads(processes)}; fits in {processes} worker processes"
     return describe_threads()

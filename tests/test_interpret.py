@@ -120,12 +120,15 @@ def test_fits_in_worker_processes_and_a_resumed_run_report_one_closed_set_fit(
     again = benchmark_all(data, pert, tmp_path, workers=2, **kw)
     assert comparable(again) == comparable(first)
     assert _closed_set_d(again) == d
-    assert _reproducible((tmp_path / "report.md").read_text()) == report
+    resumed = (tmp_path / "report.md").read_text()
+    assert _reproducible(resumed) == report
+    # No fit ran, and the report does not pass this process's settings off as the fits'.
+    assert f"- thread settings: {run_mod.NO_FITS_LINE}" in resumed.splitlines()
 
 
 def _reproducible(report: str) -> str:
-    """The report without its timing section and its thread-settings line (which states
-    this process's settings when every protocol comes from its checkpoint)."""
+    """The report without its timing section and its thread-settings line (which says
+    that no fit ran when every protocol comes from its checkpoint)."""
     lines = strip_timing(report).splitlines()
     return "\n".join(line for line in lines if not line.startswith("- thread settings:"))
 
