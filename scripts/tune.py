@@ -68,12 +68,12 @@ from models.ncfs import NCFS, LambdaCV, select_lambda  # noqa: E402
 from models.prototypes import nearest_prototype  # noqa: E402
 from models.scaling import FeatureScaler  # noqa: E402
 
-ALPHAS: tuple[float, ...] = (5.0, 7.5, 10.0, 15.0, 20.0, 30.0, 50.0, 75.0, 100.0)
+ALPHAS: tuple[float, ...] = (5.0, 7.5, 10.0, 15.0, 20.0, 30.0, 50.0, 75.0, 100.0, 150.0, 200.0)
 MAX_ITERS: tuple[int, ...] = (5, 10, 15, 20, 30, 50, 100)
 #: L-BFGS iterations of the fits inside the lambda cross-validation (step 1), as in
 #: MathWorks' fscnca tuning example (IterationLimit 30).
 CV_MAX_ITER: int = 30
-META_LRS: tuple[float, ...] = (3e-4, 1e-3, 3e-3, 1e-2, 3e-2)
+META_LRS: tuple[float, ...] = (3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 1e-1)
 META_ITERATIONS: tuple[int, ...] = (100, 300, 1000, 3000)
 QUICK = {
     "alphas": (5.0, 10.0, 20.0),
