@@ -1,9 +1,9 @@
 """Resumable runs: each finished protocol's records in ``DIR/checkpoints/<protocol>.json``.
 
 A checkpoint is ``{"key": ..., "records": [...]}``: the key is a SHA-256 of everything
-that determines the records (dataset fingerprints, methods, episode budget, seed,
-protocol) and of :data:`LAYOUT`, so a re-run with the same inputs reuses them and any
-change recomputes.
+that determines the records (dataset fingerprints, methods and their settings, the
+package version, episode budget, seed, protocol) and of :data:`LAYOUT`, so a re-run with
+the same inputs reuses them and any change recomputes.
 Records are written and read through :mod:`benchmark.results` (schema version checked,
 typed on load); a damaged or foreign file counts as no checkpoint.
 """
@@ -38,6 +38,26 @@ def fingerprint(data: Dataset) -> str:
         h.update(str(a.dtype).encode() + str(a.shape).encode())
         h.update(a.tobytes())
     return h.hexdigest()[:16]
+
+
+def method_settings(methods: Sequence[str]) -> dict[str, dict[str, Any]]:
+    """What each method is built with: the public scalar attributes of a new instance
+    (hyper-parameters, tuned defaults included), for the checkpoint key, so that a run
+    after a retuning or a change to a plug-in's settings does not reuse results made with
+    other ones. Values that are not JSON scalars are keyed by their ``repr``."""
+    from models.registry import make_method
+
+    out: dict[str, dict[str, Any]] = {}
+    for name in methods:
+        attrs = vars(make_method(name, seed=0))
+        out[name] = {
+            k: v if isinstance(v, (bool, int, float, str, type(None))) else repr(v)
+            for k, v in sorted(attrs.items())
+            if not k.startswith("_")
+            and not k.endswith("_")  # fitted state (none yet)
+            and isinstance(v, (bool, int, float, str, type(None), tuple))
+        }
+    return out
 
 
 def key(inputs: Mapping[str, Any]) -> str:

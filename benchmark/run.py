@@ -21,6 +21,7 @@ from typing import NamedTuple
 from models.registry import METHOD_NAMES
 from shapes.validation import check_int
 from synth import Dataset
+from synth.store import versions as store_versions
 from tactile_synth.threads import describe as describe_threads
 from tactile_synth.threads import settings
 
@@ -76,6 +77,8 @@ def run_protocols(
         "data": checkpoints.fingerprint(data),
         "perturbed": None if perturbed is None else checkpoints.fingerprint(perturbed),
         "methods": list(methods),
+        "settings": checkpoints.method_settings(methods),
+        "version": store_versions()["package_version"],
         "seed": seed,
     }
     found: dict[int, list[Record]] = {}

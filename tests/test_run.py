@@ -81,9 +81,30 @@ def test_benchmark_all_resumes_from_checkpoints(datasets, tmp_path, monkeypatch)
     def boom(*a, **k):
         raise AssertionError("protocol re-run although its checkpoint is valid")
 
-    monkeypatch.setattr(run_mod, "run_task_sets", boom)
-    again = benchmark_all(data, pert, tmp_path, **kw)
+    with monkeypatch.context() as m:
+        m.setattr(run_mod, "run_task_sets", boom)
+        again = benchmark_all(data, pert, tmp_path, **kw)
     assert comparable(again) == comparable(first)
+    # Other hyper-parameters (a retuned default) make the checkpoints stale.
+    from models.afop import AFOPML
+
+    ran = []
+    real = run_mod.run_task_sets
+
+    def counting(*a, **k):
+        ran.append(1)
+        return real(*a, **k)
+
+    original = AFOPML.__init__
+
+    def retuned(self, *a, **k):
+        original(self, *a, **k)
+        self.alpha = self.alpha * 2
+
+    monkeypatch.setattr(AFOPML, "__init__", retuned)
+    monkeypatch.setattr(run_mod, "run_task_sets", counting)
+    benchmark_all(data, pert, tmp_path, **kw)
+    assert ran, "checkpoints made with other hyper-parameters were reused"
 
 
 def test_benchmark_all_validates_inputs(datasets, tmp_path):
