@@ -105,8 +105,8 @@ class ClosedLoop:
         self.force = np.array([t.force_n for t in self.trials])
         self.gain = np.array([force_loop_gain_m_per_n_s(config, t.force_n) for t in self.trials])
         self.kinetic = np.array([t.friction.kinetic for t in self.trials])
-        self.static = np.array([t.friction.static for t in self.trials])
-        self.static_excess = self.static - self.kinetic
+        # Static minus kinetic coefficient: the velocity-weakening part of the law.
+        self.static_excess = np.array([t.friction.static for t in self.trials]) - self.kinetic
         self.v_stribeck = np.array([t.friction.stribeck_velocity_m_s for t in self.trials])
         self.load_exp = np.array([t.friction.load_exponent for t in self.trials])
         self.scale = np.array([t.friction_scale for t in self.trials])
