@@ -301,10 +301,21 @@ def _scene_cached(shape: str, finger_json: str, motion_json: str) -> Scene:
 
 def scene(shape: str, config: SynthConfig) -> Scene:
     """The compiled scene for ``shape`` (cached per shape and finger/motion parameters)."""
+    try:
+        return _scene_for(shape, config.finger, config.motion)
+    except TypeError:  # a section holding an unhashable value (e.g. a list for a tuple)
+        return _scene_for.__wrapped__(shape, config.finger, config.motion)
+
+
+@functools.lru_cache(maxsize=64)
+def _scene_for(shape: str, finger: Finger, motion: Motion) -> Scene:
+    # Every trial's plan asks for its scene: this cache answers from the (frozen, hashable)
+    # parameter sections, the one below from their serialised values, so that equal
+    # parameters share one compiled model.
     return _scene_cached(
         shape,
-        json.dumps(_plain(config.finger), sort_keys=True),
-        json.dumps(_plain(config.motion), sort_keys=True),
+        json.dumps(_plain(finger), sort_keys=True),
+        json.dumps(_plain(motion), sort_keys=True),
     )
 
 

@@ -23,6 +23,7 @@ bit-identical whatever batch, thread or process simulates it.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 import time
@@ -145,7 +146,7 @@ def contact_phase_m(
     The distance to the outline changes by at most the step along the path, so a grid
     :data:`_COARSE` times coarser finds where the fine grid can come within reach; the
     fine grid is then searched only there (the same answer as searching all of it)."""
-    poly = shapes.outline(shape)
+    poly = _outline(shape)
     half = SPECIMEN.base_length_m / 2
     d = np.arange(-half, half, TOUCH_STEP_M)
     c, s = math.cos(yaw_rad), math.sin(yaw_rad)
@@ -172,6 +173,14 @@ def contact_phase_m(
 
 #: Coarse grid of :func:`contact_phase_m`, in fine steps.
 _COARSE = 25
+
+
+@functools.lru_cache(maxsize=32)
+def _outline(shape: str) -> shapely.Polygon:
+    """The specimen outline of ``shape`` (every trial's plan measures its path against it)."""
+    poly = shapes.outline(shape)
+    shapely.prepare(poly)
+    return poly
 
 
 def plan(spec: TrialSpec, config: SynthConfig) -> Plan:

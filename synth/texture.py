@@ -23,6 +23,7 @@ the contact point from the simulated normal force.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -85,9 +86,16 @@ def ridge_offsets(finger: Finger) -> np.ndarray:
 
     The fingerprint is the same in every trial: its irregularity comes from a fixed seed.
     """
-    n = finger.ridges_in_contact
+    # Every trial's plan needs them: computed once per fingerprint.
+    return _ridge_offsets(
+        finger.ridges_in_contact, finger.ridge_spacing_m, finger.ridge_jitter
+    ).copy()
+
+
+@functools.lru_cache(maxsize=8)
+def _ridge_offsets(n: int, spacing_m: float, jitter: float) -> np.ndarray:
     rng = np.random.default_rng(np.random.SeedSequence(0x5EED_F1))
-    gaps = finger.ridge_spacing_m * (1 + finger.ridge_jitter * rng.uniform(-1, 1, size=n - 1))
+    gaps = spacing_m * (1 + jitter * rng.uniform(-1, 1, size=n - 1))
     pos = np.concatenate([[0.0], np.cumsum(gaps)])
     return pos - pos.mean()
 
@@ -128,7 +136,10 @@ def felt_surface(
     if width > 1:
         h = np.convolve(h, np.ones(width) / width, mode="same")
     grid = np.arange(h.size) * GRID_M
-    felt = np.mean([np.interp(grid + o, grid, h) for o in offsets], axis=0)
+    shifted = np.empty((offsets.size, h.size))
+    for row, o in zip(shifted, offsets, strict=True):
+        row[:] = np.interp(grid + o, grid, h)
+    felt = np.mean(shifted, axis=0)
     slope = np.gradient(felt, GRID_M)
     return FeltSurface(origin_m=start_m - margin, height_m=felt, slope=slope)
 
