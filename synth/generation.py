@@ -5,7 +5,7 @@ One task = one storage chunk: it simulates its trials, writes its own chunk of t
 store and marks it done (see :mod:`synth.store`). Tasks depend only on the configuration and
 their chunk index, so the bytes are the same for any worker count, executor, resume or
 repair history. Locally the tasks run in this process (two chunks at a time on threads, each
-rolling out on MuJoCo threads, as many as :mod:`tactile_synth.threads` allots: one chunk's
+rolling out on half of the MuJoCo threads :mod:`tactile_synth.threads` allots: one chunk's
 Python sensor chain and storage overlap the other's physics) or in a process pool;
 ``executor=`` accepts any ``concurrent.futures.Executor``, e.g. a Dask client's.
 
@@ -412,10 +412,11 @@ def generate(
 ) -> Path:
     """Generate ``config`` (a :class:`GenerationConfig` or preset name) into the store ``out``.
 
-    workers: local processes (default 1: this process, two chunk tasks at a time, the
-    fastest on one machine; N > 1: a pool of N processes). threads: MuJoCo rollout threads
-    per task (default: ``tactile_synth.threads.rollout_threads()`` in this process; in a
-    pool, each process's share of the CPUs; 1 on an executor); in a pool or on an executor
+    workers: local processes (default 1: this process, two chunk tasks at a time; N > 1: a
+    pool of N processes, faster where many cores would make one process's Python the
+    bottleneck). threads: MuJoCo rollout threads per task (default: half of
+    ``tactile_synth.threads.rollout_threads()`` in this process, for each of its two
+    tasks; in a pool, each process's share of the CPUs; 1 on an executor); in a pool or on an executor
     it sizes the worker's BLAS/OpenMP pools too. executor: any
     ``concurrent.futures.Executor`` (e.g. a Dask client's ``get_executor()``); its workers
     must see ``out``. resume: complete an interrupted store (or an interrupted overwrite)
@@ -475,9 +476,11 @@ def _run(
         workers = max(min(workers, len(todo)), 1)  # no idle processes for a small run
         if workers == 1:
             # Two tasks overlap: while one runs its sensor chain and writes (Python, GIL),
-            # the other's rollout keeps the cores busy (measured: 100% of the raw rate).
+            # the other's rollout keeps the cores busy. They share this process's rollout
+            # threads: the closed loop calls the rollout once per surface update, and
+            # threads beyond the cores would spend each call's barrier waiting for a core.
             owned = executor = cf.ThreadPoolExecutor(max_workers=2, thread_name_prefix="chunk")
-            threads = threads or rollout_threads()
+            threads = threads or max(1, rollout_threads() // 2)
         else:
             # spawn: MuJoCo/zarr threads in this process must not be forked, and spawned
             # workers are our own children (their CPU time and RSS show in getrusage).
