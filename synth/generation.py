@@ -416,8 +416,8 @@ def generate(
     pool of N processes, faster where many cores would make one process's Python the
     bottleneck). threads: MuJoCo rollout threads per task (default: half of
     ``tactile_synth.threads.rollout_threads()`` in this process, for each of its two
-    tasks; in a pool, each process's share of the CPUs; 1 on an executor); in a pool or on an executor
-    it sizes the worker's BLAS/OpenMP pools too. executor: any
+    tasks; in a pool, each process's share of the CPUs; 1 on an executor); in a pool or
+    on an executor it sizes the worker's BLAS/OpenMP pools too. executor: any
     ``concurrent.futures.Executor`` (e.g. a Dask client's ``get_executor()``); its workers
     must see ``out``. resume: complete an interrupted store (or an interrupted overwrite)
     without recomputing its finished chunks; it refuses a store with damaged chunks unless
