@@ -21,6 +21,7 @@ import ctypes
 import json
 import os
 import resource
+import statistics
 import sys
 import tempfile
 import time
@@ -104,10 +105,6 @@ def bench_raw(name: str, n_trials: int | None) -> dict:
     return {"trials": len(specs), "wall_s": wall, "cpu_s": cpu, "trials_per_s": len(specs) / wall}
 
 
-def _median(values: list[float]) -> float:
-    return float(np.median(values))
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--preset", default="paper")
@@ -135,7 +132,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.keep is not None and args.repeat > 1:
         parser.error("--keep keeps one store per mode: use it with --repeat 1")
 
-    results: dict = {"preset": args.preset, "cores": os.cpu_count(), "runs": [], "raw_runs": []}
+    results: dict = {"preset": args.preset, "cores": os.cpu_count(), "runs": []}
     # The raw rollout runs before the first round and after every round; each generation
     # is compared with the mean of the raw runs on either side of its round, since a
     # shared machine's speed drifts over minutes.
@@ -182,15 +179,15 @@ def main(argv: list[str] | None = None) -> int:
     for mode in args.modes:
         mine = [r for r in results["runs"] if r["mode"] == mode]
         summary[mode] = {
-            "wall_s": _median([r["wall_s"] for r in mine]),
-            "cpu_ms_per_trial": _median([r["cpu_s"] / r["trials"] * 1e3 for r in mine]),
-            "time_ratio": _median([r["time_ratio"] for r in mine]),
+            "wall_s": statistics.median([r["wall_s"] for r in mine]),
+            "cpu_ms_per_trial": statistics.median([r["cpu_s"] / r["trials"] * 1e3 for r in mine]),
+            "time_ratio": statistics.median([r["time_ratio"] for r in mine]),
         }
     results["modes"] = summary
     results["raw"] = {
         "trials": trials,
-        "wall_s": _median([r["wall_s"] for r in raws]),
-        "cpu_s": _median([r["cpu_s"] for r in raws]),
+        "wall_s": statistics.median([r["wall_s"] for r in raws]),
+        "cpu_s": statistics.median([r["cpu_s"] for r in raws]),
         "wall_s_runs": [r["wall_s"] for r in raws],
     }
     # Time of the fastest mode's generation over the raw physics' time (target <= 1.25).
