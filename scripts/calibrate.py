@@ -56,6 +56,12 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
     ),
     (
         "variability",
+        "yaw_rad",
+        (0.0, 0.005, 0.01, 0.02),
+        "the specimen's yaw in its fixture: aligned by eye to a stop, 0.3-1 degree",
+    ),
+    (
+        "variability",
         "friction_rel",
         (0.05, 0.08, 0.12, 0.15),
         "stroke-to-stroke friction scatter: 6-8 % (repeatability studies) to 15 %",

@@ -220,8 +220,12 @@ class Variability:
     #: Lateral (y) offset of the path: uniform within +- this. UR arms repeat to +-0.1 mm;
     #: the specimen's play in its fixture adds about as much again.
     lateral_offset_m: float = 0.25e-3
-    #: Yaw of the path relative to the specimen (fixture alignment).
-    yaw_rad: float = 0.01
+    #: Yaw of the path relative to the specimen (standard deviation): the 60 mm plate
+    #: turns in its fixture pocket by up to 2 x play / length = 2 x 0.15 mm / 60 mm =
+    #: 0.005 rad as friction pushes it (the play as for ``lateral_offset_m``). It also
+    #: sets the angle between the specimen's periodic marks and the fingerprint's ridges
+    #: (:func:`synth.texture.mark_gains`).
+    yaw_rad: float = 0.005
     #: Relative error of the force set point and of the path speed.
     force_rel: float = 0.02
     speed_rel: float = 0.01

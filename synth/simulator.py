@@ -224,6 +224,7 @@ def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
         float(s_path[-1]) + 2 * finger.pad_radius_m,
         np.random.default_rng(texture_ss),
         contact_radius_m=math.sqrt(finger.pad_radius_m * sink),  # Hertz: a^2 = R delta
+        mark_angle_rad=yaw,  # the marks run along the specimen's y, the ridges along the robot's
     )
     sc = scene_mod.scene(spec.shape, config)
     qpos = np.zeros(sc.model.nq)

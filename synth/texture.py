@@ -13,7 +13,11 @@ sticks feels a constant height; a pad that slows down feels the texture slow dow
 The skin touches the surface only with its fingerprint ridges (parallel springs), so the
 pad follows the *mean* height under the ridges in contact, each ridge averaging over its
 own contact width. That comb-and-box filter is the fingerprint's role in the contact
-model: it passes wavelengths near the ridge spacing and averages finer ones out.
+model: it passes wavelengths near the ridge spacing and averages finer ones out. Across
+the path each ridge touches the surface along a chord of the contact circle and feels
+the mean height along it: random roughness is averaged down, and periodic marks are felt
+in full only when they run parallel to the ridges; a specimen turned in its fixture
+turns its marks against the ridges and they fade (:func:`mark_gains`).
 
 The felt surface is also inclined by its local slope ``dh/ds``: the contact normal tilts,
 so the contact force gains a tangential component ``-slope * F_n`` (pointing downhill)
@@ -63,6 +67,15 @@ def profile(
     direction: the random roughness (isotropic, measured on a line along the path) is
     averaged over it, the periodic marks (running across the path) are not.
     """
+    rough, marks = _profile_parts(texture, length_m, rng, line_length_m)
+    return rough + marks.sum(axis=0)
+
+
+def _profile_parts(
+    texture: Texture, length_m: float, rng: np.random.Generator, line_length_m: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The random roughness ``(n,)`` and each periodic component ``(k, n)`` of a profile,
+    drawn in that order from ``rng``."""
     n = math.ceil(length_m / GRID_M) + 1
     s = np.arange(n) * GRID_M
     h = np.zeros(n)
@@ -75,10 +88,24 @@ def profile(
         eps = rng.standard_normal(n)
         h0 = rng.standard_normal() * rms
         h, _ = signal.lfilter([rms * math.sqrt(1 - a * a)], [1.0, -a], eps, zi=[a * h0])
-    for comp in texture.periodic:
+    marks = np.empty((len(texture.periodic), n))
+    for row, comp in zip(marks, texture.periodic, strict=True):
         phase = rng.uniform(0, 2 * math.pi)
-        h = h + comp.amplitude_m * np.cos(2 * math.pi * s / comp.wavelength_m + phase)
-    return h
+        row[:] = comp.amplitude_m * np.cos(2 * math.pi * s / comp.wavelength_m + phase)
+    return h, marks
+
+
+def mark_gains(chords_m: np.ndarray, wavelengths_m: np.ndarray, angle_rad: float) -> np.ndarray:
+    """How much of each periodic mark each ridge feels, ``(ridges, marks)``.
+
+    A ridge touches the surface along a chord of length ``L`` across the sliding
+    direction. Marks of wavelength ``lambda`` running at ``angle_rad`` to the ridge cross
+    that line over ``L tan(angle)`` of their period, and the ridge feels their mean along
+    it: ``sinc(L tan(angle) / lambda)`` (normalised sinc) times the mark at the chord's
+    centre. 1 for marks parallel to the ridges; 0 where the chord spans whole periods.
+    """
+    x = np.multiply.outer(np.asarray(chords_m) * math.tan(angle_rad), 1.0 / wavelengths_m)
+    return np.sinc(x)
 
 
 def ridge_offsets(finger: Finger) -> np.ndarray:
@@ -118,6 +145,7 @@ def felt_surface(
     rng: np.random.Generator,
     *,
     contact_radius_m: float = 0.0,
+    mark_angle_rad: float = 0.0,
 ) -> FeltSurface:
     """The felt surface over path coordinates ``start_m..stop_m`` (plus the fingerprint's
     half-width on each side).
@@ -125,20 +153,27 @@ def felt_surface(
     ``contact_radius_m`` is the radius of the skin's contact: each ridge touches the
     surface along a chord of that circle across the sliding direction, and the random
     roughness is averaged along the ridges' mean chord (0: a point contact, no averaging).
+    ``mark_angle_rad`` is the angle between the specimen's periodic marks and the ridges
+    (the specimen's yaw in its fixture): each ridge feels a mark scaled by
+    :func:`mark_gains` over its own chord.
     """
     offsets = ridge_offsets(finger)
     margin = float(np.abs(offsets).max()) + finger.ridge_width_m + 4 * GRID_M
     length = stop_m - start_m + 2 * margin
     chords = 2.0 * np.sqrt(np.maximum(contact_radius_m**2 - offsets**2, 0.0))
-    h = profile(texture, length, rng, line_length_m=float(chords.mean()))
+    rough, marks = _profile_parts(texture, length, rng, float(chords.mean()))
+    gains = mark_gains(chords, np.array([c.wavelength_m for c in texture.periodic]), mark_angle_rad)
     # Each ridge averages over its contact width (moving box filter on the grid).
     width = max(1, round(finger.ridge_width_m / GRID_M))
     if width > 1:
-        h = np.convolve(h, np.ones(width) / width, mode="same")
-    grid = np.arange(h.size) * GRID_M
-    shifted = np.empty((offsets.size, h.size))
-    for row, o in zip(shifted, offsets, strict=True):
-        row[:] = np.interp(grid + o, grid, h)
+        box = np.ones(width) / width
+        rough = np.convolve(rough, box, mode="same")
+        for row in marks:
+            row[:] = np.convolve(row, box, mode="same")
+    grid = np.arange(rough.size) * GRID_M
+    shifted = np.empty((offsets.size, rough.size))
+    for row, o, gain in zip(shifted, offsets, gains, strict=True):
+        row[:] = np.interp(grid + o, grid, rough + gain @ marks)
     felt = np.mean(shifted, axis=0)
     slope = np.gradient(felt, GRID_M)
     return FeltSurface(origin_m=start_m - margin, height_m=felt, slope=slope)

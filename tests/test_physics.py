@@ -451,6 +451,47 @@ def test_the_ridges_line_contact_averages_roughness_but_not_marks():
     np.testing.assert_array_equal(felt(marks, a).height_m, felt(marks, 0.0).height_m)
 
 
+def test_marks_at_an_angle_to_the_ridges_are_felt_as_their_mean_along_each_chord():
+    """A turned specimen's marks cross each ridge's line contact at an angle: the felt
+    surface equals the marks averaged numerically along every ridge's chord of the
+    contact circle (then over the ridges), and is weaker than with aligned marks."""
+    finger = SynthConfig().finger
+    wavelength, amplitude, a = 85e-6, 1e-6, 2.4e-3
+    marks = Texture(0.0, 1e-4, periodic=(Periodic(wavelength_m=wavelength, amplitude_m=amplitude),))
+    offsets = synth.texture.ridge_offsets(finger)
+    chords = 2 * np.sqrt(a**2 - offsets**2)
+    grid = synth.texture.GRID_M
+    width = round(finger.ridge_width_m / grid)
+
+    def felt(angle):
+        rng = np.random.default_rng(11)
+        return synth.texture.felt_surface(
+            marks, finger, 0.0, 0.02, rng, contact_radius_m=a, mark_angle_rad=angle
+        )
+
+    aligned = felt(0.0)
+    phase = np.random.default_rng(11).uniform(0, 2 * np.pi)  # the profile's one draw
+    s = np.arange(aligned.height_m.size) * grid  # the profile's own coordinate (phase 0 at 0)
+    inner = slice(1000, -1000)  # away from the box filter's ends
+    for angle in (0.004, 0.01, 0.03):
+        # The surface at path coordinate x and across-path y: marks along the specimen's
+        # y axis, turned by the angle. Each ridge averages it along its chord (y) and
+        # over its width (x, the box filter), the pad over the ridges.
+        y = np.linspace(-0.5, 0.5, 401)
+        expected = np.zeros_like(s)
+        for o, c in zip(offsets, chords, strict=True):
+            # The box filter's samples, as np.convolve(..., mode="same") aligns them.
+            xs = s[:, None] + o + (np.arange(width) - width // 2)[None, :] * grid
+            u = xs[..., None] + (c * y * np.tan(angle))[None, None, :]
+            h = amplitude * np.cos(2 * np.pi * u / wavelength + phase)
+            expected += h.mean(axis=(1, 2))
+        expected /= offsets.size
+        got = felt(angle).height_m
+        scale = np.abs(expected[inner]).max()
+        assert np.abs(got[inner] - expected[inner]).max() < 0.02 * scale, angle
+        assert np.std(got[inner]) < np.std(aligned.height_m[inner])
+
+
 def test_the_texture_table_interpolates_as_look_up_does():
     """The closed loop's texture table gives each trial's own height and slope at its own
     coordinates, as the plain interpolation does (to the last bits), clamped at the ends."""
