@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.util
 from pathlib import Path
 
 import pytest
 
+import synth
+from models.features import FEATURE_NAMES
 from tests.synthetic_data import make_dataset
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -37,3 +40,27 @@ def test_selection_shares_follow_where_the_planted_information_lies(seed):
     shares = calibrate._selection_shares(data)
     assert shares["pvdf_share_cross_material"] < 0.35
     assert shares["pvdf_share_cross_shape"] > shares["pvdf_share_cross_material"] + 0.10
+    # The median feature count each protocol's selections chose, out of the pool's.
+    for key in ("d_cross_shape", "d_cross_material"):
+        assert 1 <= shares[key] <= len(FEATURE_NAMES)
+
+
+def test_the_texture_scale_scales_every_texture_amplitude_and_nothing_else():
+    calibrate = _calibrate_module()
+    base = synth.SynthConfig()
+    half = calibrate._with(base, *calibrate.TEXTURE_SCALE, 0.5)
+    for name, material in base.materials.items():
+        scaled = half.materials[name]
+        assert scaled.friction == material.friction
+        assert scaled.texture.roughness_rms_m == pytest.approx(
+            0.5 * material.texture.roughness_rms_m
+        )
+        assert scaled.texture.correlation_length_m == material.texture.correlation_length_m
+        for mark, original in zip(scaled.texture.periodic, material.texture.periodic, strict=True):
+            assert mark.amplitude_m == pytest.approx(0.5 * original.amplitude_m)
+            assert mark.wavelength_m == original.wavelength_m
+    assert dataclasses.replace(half, materials=base.materials) == base
+    # At its default the sweep evaluates the unchanged configuration (shared with every
+    # other parameter's default row).
+    default = calibrate._default(base, *calibrate.TEXTURE_SCALE)
+    assert calibrate._with(base, *calibrate.TEXTURE_SCALE, default).to_dict() == base.to_dict()
