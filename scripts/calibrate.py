@@ -193,9 +193,9 @@ def _selection_shares(data: synth.Dataset) -> dict:
 
     features = extract(data.signals)
     out = {}
-    for key, splits in (
-        ("pvdf_share_cross_shape", cross_shape_splits(data)),
-        ("pvdf_share_cross_material", cross_material_splits(data)),
+    for protocol, splits in (
+        ("cross_shape", cross_shape_splits(data)),
+        ("cross_material", cross_material_splits(data)),
     ):
         shares, sizes = [], []
         for split in splits:
@@ -204,8 +204,8 @@ def _selection_shares(data: synth.Dataset) -> dict:
             )
             shares.append(sensor_shares(fitted.selected_, FEATURE_NAMES)[0])
             sizes.append(len(fitted.selected_))
-        out[key] = float(np.mean(shares))
-        out[key.replace("pvdf_share", "d")] = float(np.median(sizes))
+        out[f"pvdf_share_{protocol}"] = float(np.mean(shares))
+        out[f"d_{protocol}"] = float(np.median(sizes))
     return out
 
 
