@@ -22,8 +22,9 @@ source gives; nothing is tuned per shape, material or class.
         real finger: 21 % and 50 %, D about 6 and 12). Only training splits are used: no
         test accuracy enters.
 
-The sweep simulates 720 trials per candidate (about a minute each on 2 cores; the
-selection adds about a minute); the default configuration is evaluated once.
+The sweep simulates 36 classes x ``--trials-per-class`` trials per candidate (720 at the
+default of 20; about a minute each on 2 cores, and the selection adds about a minute);
+the default configuration is evaluated once.
 """
 
 from __future__ import annotations
