@@ -1,6 +1,8 @@
 """Time the work that allocates most (a per-episode CNN training loop, a chunk of the
 simulator) with tactile-synth's allocator thresholds and with glibc's defaults
-(``TACTILE_SYNTH_MALLOC=system``), each in a fresh process on one thread.
+(``TACTILE_SYNTH_MALLOC=system``) and with the trim threshold a Dask nanny exports
+(``MALLOC_TRIM_THRESHOLD_=65536``, which also fixes glibc's mmap threshold at 128 kB), each
+in a fresh process on one thread.
 
     python3 scripts/bench_malloc.py [--repeats 3]
 
@@ -60,11 +62,20 @@ print(json.dumps({{"wall_s": time.perf_counter() - t0, "user_s": r1.ru_utime - r
 """
 
 
-def measure(work: str, system: bool) -> dict:
+#: label -> the allocator variables of the measured process.
+SETTINGS = {
+    "tuned": {},
+    "glibc defaults": {"TACTILE_SYNTH_MALLOC": "system"},
+    "Dask's trim threshold": {"MALLOC_TRIM_THRESHOLD_": "65536"},
+}
+_ALLOCATOR_VARS = ("TACTILE_SYNTH_MALLOC", "MALLOC_MMAP_THRESHOLD_", "MALLOC_TRIM_THRESHOLD_")
+
+
+def measure(work: str, setting: str) -> dict:
     env = dict(os.environ, TACTILE_SYNTH_THREADS="1")
-    env.pop("TACTILE_SYNTH_MALLOC", None)
-    if system:
-        env["TACTILE_SYNTH_MALLOC"] = "system"
+    for name in _ALLOCATOR_VARS:
+        env.pop(name, None)
+    env.update(SETTINGS[setting])
     out = subprocess.run(
         [sys.executable, "-c", PROBE.format(setup=WORK[work][0], work=WORK[work][1])],
         env=env,
@@ -80,11 +91,13 @@ def main() -> int:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--work", nargs="+", choices=sorted(WORK), default=sorted(WORK))
     args = parser.parse_args()
+    if args.repeats < 1:
+        parser.error(f"--repeats must be >= 1; got {args.repeats}")
     summary = {}
     for work in args.work:
-        for label, system in (("tuned", False), ("glibc defaults", True)):
+        for label in SETTINGS:
             runs = sorted(
-                (measure(work, system) for _ in range(args.repeats)), key=lambda r: r["wall_s"]
+                (measure(work, label) for _ in range(args.repeats)), key=lambda r: r["wall_s"]
             )
             mid = runs[len(runs) // 2]
             summary[f"{work}, {label}"] = {
