@@ -244,6 +244,50 @@ def other_protocols_section(records: Sequence[dict]) -> list[str]:
     return lines
 
 
+#: Features of each fit's NCA ranking that the report names.
+RANKING_HEAD = 4
+
+_TASKS = (
+    ("cross-shape", "Shape"),
+    ("closed-set", "Closed-set"),
+    ("perturbation", "Force&Speed (the closed-set fit)"),
+    ("cross-material", "Material"),
+)
+
+
+def ranking_heads(selection: Sequence[dict]) -> list[str]:
+    """The first :data:`RANKING_HEAD` features of every fit's NCA ranking, by name: what
+    the shares above are made of. Empty when no record holds its selected features."""
+    from models.features import FEATURE_NAMES
+
+    rows = []
+    for protocol, label in _TASKS:
+        if protocol == "perturbation":  # the closed-set fit, listed once
+            continue
+        for r in selection:
+            if r["protocol"] != protocol or not r.get("selected"):
+                continue
+            fold = "-" if r.get("fold") is None else str(r["fold"])
+            head = [int(i) for i in r["selected"][:RANKING_HEAD]]
+            bad = [i for i in head if not 0 <= i < len(FEATURE_NAMES)]
+            if bad:
+                raise ValueError(
+                    f"selection record ({protocol}, fold {fold}): selected holds feature "
+                    f"index {bad[0]}, outside the {len(FEATURE_NAMES)}-feature pool"
+                )
+            names = [FEATURE_NAMES[i] for i in head]
+            rows.append([label, fold, ", ".join(f"`{n}`" for n in names)])
+    if not rows:
+        return []
+    return [
+        f"The first {RANKING_HEAD} features of each fit's NCA ranking, best first (names are "
+        "`<channel>.<domain>.<statistic>`; `pvdf*` and `sg*` channels give the shares above):",
+        "",
+        *markdown_table(["task", "fold", "first features"], rows),
+        "",
+    ]
+
+
 def interpretability_section(records: Sequence[dict]) -> list[str]:
     lines = ["## Interpretability (Fig. 6, Fig. 7)", ""]
     sel = select(records, "selection")
@@ -257,12 +301,7 @@ def interpretability_section(records: Sequence[dict]) -> list[str]:
         )
         lines.append("")
         rows = []
-        for protocol, label in (
-            ("cross-shape", "Shape"),
-            ("closed-set", "Closed-set"),
-            ("perturbation", "Force&Speed (the closed-set fit)"),
-            ("cross-material", "Material"),
-        ):
+        for protocol, label in _TASKS:
             rs = [r for r in sel if r["protocol"] == protocol]
             if not rs:
                 continue
@@ -292,6 +331,7 @@ def interpretability_section(records: Sequence[dict]) -> list[str]:
             rows,
         )
         lines.append("")
+        lines += ranking_heads(sel)
     tsne = select(records, "tsne")
     if tsne:
         t = tsne[0]

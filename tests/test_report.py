@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from benchmark import figures, paper_reference
+from benchmark import figures, paper_reference, report
 from benchmark.report import TIMING_END, TIMING_START, render, strip_timing, write_report
 from benchmark.splits import condition_name
 from tests.synthetic_data import make_dataset
@@ -230,3 +230,22 @@ def test_run_draws_the_heatmap_of_every_method_that_ran(tmp_path, monkeypatch):
     art = Artefacts(None, 8, np.zeros((2, 2)), np.zeros(2), np.zeros(2), {}, 10)
     made = figures.draw_figures(rs, make_dataset(trials_per_class=1, n_samples=50), art, tmp_path)
     assert "perturbation_heatmap" in made and asked == [names]
+
+
+def test_interpretability_names_the_head_of_each_ranking():
+    from models.features import FEATURE_NAMES
+
+    rs = fake_records()
+    sel = [r for r in rs if r.get("record") == "selection"]
+    sel[0]["selected"] = [5, 300, 7, 42, 1, 2]  # cross-shape fold 0, best ranked first
+    text = "\n".join(report.interpretability_section(rs))
+    first = ", ".join(f"`{FEATURE_NAMES[i]}`" for i in (5, 300, 7, 42))
+    assert f"| Shape | 0 | {first} |" in text
+    # Only fits whose records hold their selected features get a row.
+    assert text.count("| Shape |") == 2  # the shares row and fold 0's head
+    for r in sel:
+        r.pop("selected", None)
+    assert "NCA ranking" not in "\n".join(report.interpretability_section(rs))
+    sel[0]["selected"] = [5, 386]
+    with pytest.raises(ValueError, match=r"cross-shape, fold 0.*index 386"):
+        report.interpretability_section(rs)
