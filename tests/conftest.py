@@ -18,10 +18,10 @@ def _environment_as_found():
     """Every test hands the process environment back as it found it.
 
     Some libraries write to ``os.environ`` behind the test's back: a Dask ``LocalCluster``
-    started in this process sets ``MALLOC_TRIM_THRESHOLD_=65536`` and the thread counts at
-    1 here (its nanny's pre-spawn environment). Every process a later test spawns would
-    inherit them, and with that trim threshold glibc hands each freed array back to the
-    kernel, so a worker pool's fits spend much of their time faulting memory in again.
+    started in this process sets ``MALLOC_TRIM_THRESHOLD_=65536`` here (its nannies'
+    pre-spawn environment). Every process a later test spawns would inherit it, and with
+    that trim threshold glibc hands each freed array back to the kernel, so a worker
+    pool's fits spend much of their time faulting memory in again.
     """
     before = dict(os.environ)
     yield

@@ -6,8 +6,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from benchmark import figures, paper_reference, report
-from benchmark.report import TIMING_END, TIMING_START, render, strip_timing, write_report
+from benchmark import figures, paper_reference
+from benchmark.report import (
+    TIMING_END,
+    TIMING_START,
+    interpretability_section,
+    render,
+    strip_timing,
+    write_report,
+)
 from benchmark.splits import condition_name
 from tests.synthetic_data import make_dataset
 
@@ -238,14 +245,14 @@ def test_interpretability_names_the_head_of_each_ranking():
     rs = fake_records()
     sel = [r for r in rs if r.get("record") == "selection"]
     sel[0]["selected"] = [5, 300, 7, 42, 1, 2]  # cross-shape fold 0, best ranked first
-    text = "\n".join(report.interpretability_section(rs))
+    text = "\n".join(interpretability_section(rs))
     first = ", ".join(f"`{FEATURE_NAMES[i]}`" for i in (5, 300, 7, 42))
     assert f"| Shape | 0 | {first} |" in text
     # Only fits whose records hold their selected features get a row.
     assert text.count("| Shape |") == 2  # the shares row and fold 0's head
     for r in sel:
         r.pop("selected", None)
-    assert "NCA ranking" not in "\n".join(report.interpretability_section(rs))
+    assert "NCA ranking" not in "\n".join(interpretability_section(rs))
     sel[0]["selected"] = [5, 386]
     with pytest.raises(ValueError, match=r"cross-shape, fold 0.*index 386"):
-        report.interpretability_section(rs)
+        interpretability_section(rs)
