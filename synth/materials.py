@@ -148,16 +148,20 @@ MATERIALS: dict[str, Material] = {
     ),
     # Face-milled aluminium 6xxx. Friction: a finger pad on aluminium at 1 N, 0.6 (Seo et
     # al. 2009, Ergonomics 52); palmar skin 0.38 +- 0.13 (Buchholz, Frederick & Armstrong
-    # 1988, Ergonomics 31). Texture: Ra 0.34-0.48 um (Chuchala et al. 2021, Materials 14)
-    # with feed marks at the feed per tooth (0.1 mm), peak-to-valley f^2 / (8 r) = 1.6 um
-    # for a 0.8 mm tool nose radius.
+    # 1988, Ergonomics 31). Texture: Ra 0.34-0.48 um (Chuchala et al. 2021, Materials 14).
+    # A 0.8 mm tool nose radius r leaves a cusp profile x^2 / (2 r) at every feed per
+    # tooth f = 0.1 mm: peak-to-valley f^2 / (8 r) = 1.6 um, Ra f^2 / (18 sqrt(3) r) =
+    # 0.40 um. The marks are its fundamental, amplitude f^2 / (2 pi^2 r) = 0.63 um (a
+    # cosine with the cusps' Ra); the harmonics (50 um and finer) are left out, as a
+    # ridge's contact width averages them away. The random roughness is what the marks
+    # leave of the measured Ra: 0.25 um RMS brings the profile to Ra 0.44 um.
     "aluminum": Material(
         name="aluminum",
         friction=FrictionLaw(kinetic=0.60, static=0.72),
         texture=Texture(
-            roughness_rms_m=0.5e-6,
+            roughness_rms_m=0.25e-6,
             correlation_length_m=15e-6,
-            periodic=(Periodic(wavelength_m=0.1e-3, amplitude_m=0.8e-6),),
+            periodic=(Periodic(wavelength_m=0.1e-3, amplitude_m=0.63e-6),),
         ),
     ),
 }

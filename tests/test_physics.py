@@ -492,6 +492,28 @@ def test_marks_at_an_angle_to_the_ridges_are_felt_as_their_mean_along_each_chord
         assert np.std(got[inner]) < np.std(aligned.height_m[inner])
 
 
+@pytest.mark.parametrize(
+    ("material", "ra_range_m"),
+    [("resin", (1e-6, 3e-6)), ("wood", (3e-6, 8e-6)), ("aluminum", (0.34e-6, 0.48e-6))],
+)
+def test_each_surface_profile_has_the_roughness_its_source_measured(material, ra_range_m):
+    """A stylus profile of each specimen (roughness and marks along the path, no ridge
+    averaging), filtered as a profilometer reports Ra (ISO 16610 Gaussian mean line,
+    0.8 mm cut-off), has the Ra that ``synth.materials`` cites for the material."""
+    from scipy.ndimage import gaussian_filter1d
+
+    texture = synth.materials.MATERIALS[material].texture
+    grid = synth.texture.GRID_M
+    cutoff_m = 0.8e-3
+    sigma = np.sqrt(np.log(2) / np.pi) * cutoff_m / np.sqrt(2 * np.pi) / grid
+    edge = round(cutoff_m / grid)  # one cut-off at each end, where the filter runs out
+    for seed in range(3):
+        h = synth.texture.profile(texture, 0.04, np.random.default_rng(seed))
+        rough = (h - gaussian_filter1d(h, sigma, mode="reflect"))[edge:-edge]
+        ra = np.mean(np.abs(rough - rough.mean()))
+        assert ra_range_m[0] <= ra <= ra_range_m[1], (seed, ra)
+
+
 def test_the_texture_table_interpolates_as_look_up_does():
     """The closed loop's texture table gives each trial's own height and slope at its own
     coordinates, as the plain interpolation does (to the last bits), clamped at the ends."""
