@@ -10,8 +10,8 @@ source gives; nothing is tuned per shape, material or class.
         The PVDF post-amplifier gain: the largest round gain that keeps the worst edge
         transient of the perturbation grid (every shape x material at 1.4 N, 14 mm/s)
         below 70 % of the DAQ's range.
-    python3 scripts/calibrate.py sweep [--trials-per-class 20] [--only SECTION.FIELD]
-                                       [--out DIR]
+    python3 scripts/calibrate.py sweep [--trials-per-class 20] [--seeds 1]
+                                       [--only SECTION.FIELD] [--out DIR]
         Each global parameter of SWEEP over its cited range (one at a time, the others at
         their defaults): generates the paper grid, runs the leave-one-out diagnosis and
         AFOP-ML's feature selection on the generalisation protocols' training splits,
@@ -20,11 +20,15 @@ source gives; nothing is tuned per shape, material or class.
         material accuracy per channel group, and the PVDF share of the selected features
         and the median D on cross-shape and cross-material training splits (the paper's
         real finger: 21 % and 50 %, D about 6 and 12). Only training splits are used: no
-        test accuracy enters.
+        test accuracy enters. With ``--seeds N`` every candidate is generated from N
+        dataset seeds (0..N-1); the figures are their means, and the table adds the
+        shares' standard deviation over the seeds and their difference
+        ``pvdf_share_gap`` (cross-shape minus cross-material, negative on the real
+        finger), since one dataset's shares move by several points with its seed.
 
-The sweep simulates 36 classes x ``--trials-per-class`` trials per candidate (720 at the
-default of 20; about a minute each on 2 cores, and the selection adds about a minute);
-the default configuration is evaluated once.
+The sweep simulates 36 classes x ``--trials-per-class`` trials per candidate and seed
+(720 at the default of 20; about a minute each on 2 cores, and the selection adds about
+a minute); the default configuration is evaluated once.
 """
 
 from __future__ import annotations
@@ -162,11 +166,13 @@ def cmd_gain(_args: argparse.Namespace) -> int:
     return 0
 
 
-def _evaluate(config: synth.SynthConfig, trials_per_class: int, where: Path) -> dict:
+def _evaluate(config: synth.SynthConfig, trials_per_class: int, where: Path, seed: int = 0) -> dict:
     from benchmark.diagnose import diagnose
     from synth.presets import preset
 
-    grid = preset("paper").replace(trials_per_class=trials_per_class, synth=config.to_dict())
+    grid = preset("paper").replace(
+        trials_per_class=trials_per_class, synth=config.to_dict(), seed=seed
+    )
     synth.generate(grid, where, overwrite=True, progress=False)
     data = synth.load_dataset(where)
     diag = diagnose(data).to_dict()
@@ -210,6 +216,24 @@ def _selection_shares(data: synth.Dataset) -> dict:
     return out
 
 
+#: The metrics whose spread over dataset seeds the sweep reports beside their mean.
+SPREAD_KEYS = ("pvdf_share_cross_shape", "pvdf_share_cross_material", "pvdf_share_gap")
+
+
+def _over_seeds(per_seed: list[dict]) -> dict:
+    """One candidate's metrics over its dataset seeds: every metric's mean, the share gap
+    (cross-shape minus cross-material PVDF share), and for the shares and the gap their
+    standard deviation over the seeds (``*_sd``, 0 for one seed)."""
+    rows = [
+        {**r, "pvdf_share_gap": r["pvdf_share_cross_shape"] - r["pvdf_share_cross_material"]}
+        for r in per_seed
+    ]
+    out = {k: float(np.mean([r[k] for r in rows])) for k in rows[0]}
+    for k in SPREAD_KEYS:
+        out[f"{k}_sd"] = float(np.std([r[k] for r in rows], ddof=1)) if len(rows) > 1 else 0.0
+    return out
+
+
 def _fmt(key: str, value: float) -> str:
     """A metric as the table shows it: feature counts whole, accuracies and shares to 3
     decimals."""
@@ -235,7 +259,12 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                 config = _with(base, section, field, value)
                 key = json.dumps(config.to_dict(), sort_keys=True)
                 if key not in done:
-                    done[key] = _evaluate(config, args.trials_per_class, where)
+                    done[key] = _over_seeds(
+                        [
+                            _evaluate(config, args.trials_per_class, where, seed)
+                            for seed in range(args.seeds)
+                        ]
+                    )
                 metrics = done[key]
                 row = {
                     "parameter": f"{section}.{field}",
@@ -255,11 +284,15 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
         (out / "calibration.json").write_text(json.dumps(rows, indent=1) + "\n")
-        keys = list(rows[0])[4:]
+        keys = [k for k in list(rows[0])[4:] if not k.endswith("_sd")]
         lines = ["| parameter | value | " + " | ".join(keys) + " |", "|---" * (len(keys) + 2) + "|"]
         for r in rows:
             mark = " (default)" if r["default"] else ""
-            vals = " | ".join(_fmt(k, r[k]) for k in keys)
+            vals = " | ".join(
+                _fmt(k, r[k])
+                + (f" ± {r[k + '_sd']:.3f}" if args.seeds > 1 and k in SPREAD_KEYS else "")
+                for k in keys
+            )
             lines.append(f"| {r['parameter']} | {r['value']:g}{mark} | {vals} |")
         (out / "calibration.md").write_text("\n".join(lines) + "\n")
         print(f"wrote {out / 'calibration.md'} and calibration.json")
@@ -274,6 +307,9 @@ def main(argv: list[str] | None = None) -> int:
     p = sub.add_parser("sweep", help="the global parameters over their cited ranges")
     p.add_argument("--trials-per-class", type=int, default=20)
     p.add_argument(
+        "--seeds", type=int, default=1, help="dataset seeds per candidate (0..N-1; default 1)"
+    )
+    p.add_argument(
         "--only",
         action="append",
         metavar="SECTION.FIELD",
@@ -284,6 +320,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if getattr(args, "trials_per_class", 2) < 2:
         parser.error("--trials-per-class must be at least 2 (leave-one-out needs a neighbour)")
+    if getattr(args, "seeds", 1) < 1:
+        parser.error("--seeds must be at least 1")
     return args.func(args)
 
 

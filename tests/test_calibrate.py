@@ -30,6 +30,32 @@ def test_sweep_refuses_an_unknown_parameter_by_name():
         calibrate.main(["sweep", "--only", "finger.no_such_field"])
 
 
+def test_sweep_refuses_fewer_than_one_seed_by_name(capsys):
+    calibrate = _calibrate_module()
+    with pytest.raises(SystemExit):
+        calibrate.main(["sweep", "--seeds", "0"])
+    assert "--seeds must be at least 1" in capsys.readouterr().err
+
+
+def test_a_candidate_over_seeds_reports_means_the_share_gap_and_their_spread():
+    calibrate = _calibrate_module()
+    runs = [
+        {"class_all": 0.9, "pvdf_share_cross_shape": 0.6, "pvdf_share_cross_material": 0.5},
+        {"class_all": 0.8, "pvdf_share_cross_shape": 0.4, "pvdf_share_cross_material": 0.5},
+    ]
+    got = calibrate._over_seeds(runs)
+    assert got["class_all"] == pytest.approx(0.85)
+    assert got["pvdf_share_cross_shape"] == pytest.approx(0.5)
+    assert got["pvdf_share_gap"] == pytest.approx(0.0)
+    # Sample standard deviations over the seeds: shares 0.6/0.4, gaps +0.1/-0.1.
+    assert got["pvdf_share_cross_shape_sd"] == pytest.approx(0.1414, abs=1e-4)
+    assert got["pvdf_share_cross_material_sd"] == pytest.approx(0.0)
+    assert got["pvdf_share_gap_sd"] == pytest.approx(0.1414, abs=1e-4)
+    one = calibrate._over_seeds(runs[:1])
+    assert one["pvdf_share_gap"] == pytest.approx(0.1)
+    assert one["pvdf_share_gap_sd"] == 0.0
+
+
 @pytest.mark.parametrize("seed", [0, 6])
 def test_selection_shares_follow_where_the_planted_information_lies(seed):
     # Shapes live only in the strain-gauge channels of this dataset, materials in the PVDF
