@@ -18,6 +18,8 @@ import os
 import subprocess
 import sys
 
+from tactile_synth import allocator
+
 #: name -> (set-up, timed work): imports are not timed.
 WORK = {
     "cnn": (
@@ -68,13 +70,11 @@ SETTINGS = {
     "glibc defaults": {"TACTILE_SYNTH_MALLOC": "system"},
     "Dask's trim threshold": {"MALLOC_TRIM_THRESHOLD_": "65536"},
 }
-_ALLOCATOR_VARS = ("TACTILE_SYNTH_MALLOC", "MALLOC_MMAP_THRESHOLD_", "MALLOC_TRIM_THRESHOLD_")
 
 
 def measure(work: str, setting: str) -> dict:
-    env = dict(os.environ, TACTILE_SYNTH_THREADS="1")
-    for name in _ALLOCATOR_VARS:
-        env.pop(name, None)
+    env = allocator.without_user_settings(os.environ)
+    env["TACTILE_SYNTH_THREADS"] = "1"
     env.update(SETTINGS[setting])
     out = subprocess.run(
         [sys.executable, "-c", PROBE.format(setup=WORK[work][0], work=WORK[work][1])],

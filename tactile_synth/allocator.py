@@ -23,6 +23,7 @@ import ctypes
 import ctypes.util
 import os
 import sys
+from collections.abc import Mapping
 
 #: Largest block served from the heap: above the inputs of a stacked chunk of episodes
 #: (tens of MB). glibc versions that refuse it get :data:`FALLBACK_MMAP_THRESHOLD_BYTES`.
@@ -36,17 +37,36 @@ TRIM_THRESHOLD_BYTES = 512 * 1024 * 1024
 _M_TRIM_THRESHOLD = -1
 _M_MMAP_THRESHOLD = -3
 
-_USER_VARS = ("MALLOC_MMAP_THRESHOLD_", "MALLOC_TRIM_THRESHOLD_")
+#: glibc's environment variables for the two thresholds: a user who sets one keeps it.
+USER_VARS = ("MALLOC_MMAP_THRESHOLD_", "MALLOC_TRIM_THRESHOLD_")
 #: Environment variable: ``system`` leaves glibc's own thresholds in place.
 MALLOC_ENV = "TACTILE_SYNTH_MALLOC"
+#: Prefix of glibc's malloc tunables in ``GLIBC_TUNABLES`` (``name=value`` items joined
+#: by ``:``).
+_TUNABLE_PREFIX = "glibc.malloc."
 
 
 def _user_settings() -> bool:
     if os.environ.get(MALLOC_ENV, "").strip().lower() == "system":
         return True
-    if any(os.environ.get(v, "").strip() for v in _USER_VARS):
+    if any(os.environ.get(v, "").strip() for v in USER_VARS):
         return True
-    return "glibc.malloc." in os.environ.get("GLIBC_TUNABLES", "")
+    return _TUNABLE_PREFIX in os.environ.get("GLIBC_TUNABLES", "")
+
+
+def without_user_settings(env: Mapping[str, str]) -> dict[str, str]:
+    """A copy of the environment ``env`` without any allocator setting this module
+    defers to: ``TACTILE_SYNTH_MALLOC``, the threshold variables and the malloc
+    tunables of ``GLIBC_TUNABLES`` (its other tunables stay). A process started with it
+    gets this module's thresholds, as a user who set nothing does."""
+    out = {k: v for k, v in env.items() if k != MALLOC_ENV and k not in USER_VARS}
+    if "GLIBC_TUNABLES" in out:
+        kept = [t for t in out["GLIBC_TUNABLES"].split(":") if not t.startswith(_TUNABLE_PREFIX)]
+        if any(kept):
+            out["GLIBC_TUNABLES"] = ":".join(kept)
+        else:
+            del out["GLIBC_TUNABLES"]
+    return out
 
 
 def tune() -> bool:

@@ -72,3 +72,35 @@ def test_freed_blocks_are_reused_without_faulting_again():
 )
 def test_user_settings_are_left_alone(env):
     assert probe(**env)["tuned"] is False
+
+
+def test_without_user_settings_removes_exactly_what_the_module_defers_to():
+    from tactile_synth.allocator import without_user_settings
+
+    env = {
+        "PATH": "/usr/bin",
+        "TACTILE_SYNTH_MALLOC": "system",
+        "MALLOC_TRIM_THRESHOLD_": "65536",
+        "MALLOC_MMAP_THRESHOLD_": "131072",
+        "GLIBC_TUNABLES": "glibc.malloc.trim_threshold=1:glibc.elision.enable=1",
+    }
+    out = without_user_settings(env)
+    assert out == {"PATH": "/usr/bin", "GLIBC_TUNABLES": "glibc.elision.enable=1"}
+    assert env["MALLOC_TRIM_THRESHOLD_"] == "65536"  # the caller's mapping is not touched
+    only_malloc = {"GLIBC_TUNABLES": "glibc.malloc.mmap_threshold=1:glibc.malloc.arena_max=2"}
+    assert without_user_settings(only_malloc) == {}
+
+
+@glibc
+def test_a_process_started_without_user_settings_gets_the_thresholds():
+    from tactile_synth.allocator import without_user_settings
+
+    # Every setting the module would defer to, as a Dask cluster or a user leaves them.
+    leftover = {
+        "MALLOC_TRIM_THRESHOLD_": "65536",
+        "GLIBC_TUNABLES": "glibc.malloc.trim_threshold=65536:glibc.elision.enable=1",
+    }
+    assert probe(**leftover)["tuned"] is False
+    cleaned = without_user_settings(leftover)
+    assert cleaned == {"GLIBC_TUNABLES": "glibc.elision.enable=1"}
+    assert probe(**cleaned)["tuned"] is True
