@@ -55,7 +55,9 @@ class Finger:
     skin_solimp: tuple[float, ...] = (0.499847, 0.95, 0.004182, 0.5, 1.175687)
     #: Fingerprint ridge spacing (human ~0.45 mm; the paper's finger has printed ridges).
     ridge_spacing_m: float = 0.45e-3
-    #: Width of one ridge's contact with the surface (averages finer texture).
+    #: Width of one ridge's contact with the surface (averages finer texture). Fingerprint
+    #: ridges are 100-300 um wide, about 500 um apart (Maltoni et al. 2009, Handbook of
+    #: Fingerprint Recognition, ch. 3); a ridge pressed flat touches across its width.
     ridge_width_m: float = 0.15e-3
     #: Ridges in contact along the sliding direction (contact patch ~3 mm / spacing).
     ridges_in_contact: int = 7
