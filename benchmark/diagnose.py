@@ -1029,12 +1029,21 @@ def write_curves(diag: Diagnosis, path: str | Path) -> Path:
     return path
 
 
+def check_out_dir(out: str | Path, arg: str = "--out") -> None:
+    """``NotADirectoryError`` naming ``arg`` if ``out`` or one of its parents is a file
+    (checked before the diagnosis runs, so a bad ``--out`` fails at once)."""
+    from synth.atomic import check_dir_path
+
+    if Path(out).exists() and not Path(out).is_dir():
+        raise NotADirectoryError(f"{arg} {out} is a file; choose a directory")
+    check_dir_path(out, arg)
+
+
 def write_diagnosis(diag: Diagnosis, out: str | Path, *, figures: bool = True) -> list[Path]:
     """Write ``diagnose.md``, ``diagnose.json``, ``diagnose.npz`` and (``figures``) the PNG
     figures into directory ``out`` (created if needed); returns the paths written."""
     out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise ValueError(f"out must be a directory; {out} is a file")
+    check_out_dir(out)
     out.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
     names: dict[str, str] = {}
@@ -1068,6 +1077,8 @@ def run_diagnose(
     """The CLI's work: load the store at ``path``, diagnose it, and write the files into
     ``out`` when given."""
     say = progress or (lambda msg: None)
+    if out is not None:
+        check_out_dir(out)
     data = load_for_diagnosis(path, allow_incomplete=allow_incomplete, progress=say)
     diag = diagnose(data, source=str(path), progress=say)
     if out is not None:

@@ -514,6 +514,11 @@ def test_cli_errors_are_one_line_naming_the_path(tmp_path, capsys, monkeypatch):
     assert code == 2 and str(a_file) in one_line(err)
     code, _, err = cli(["inspect", tmp_path / "nothing"], capsys)
     assert code == 2 and "does not exist" in one_line(err)
+    # diagnose checks --out before it loads (and would diagnose) the dataset
+    code, _, err = cli(["diagnose", tmp_path / "nothing", "--out", a_file], capsys)
+    assert code == 2 and f"--out {a_file} is a file" in one_line(err)
+    code, _, err = cli(["diagnose", tmp_path / "nothing", "--out", a_file / "d"], capsys)
+    assert code == 2 and f"--out {a_file / 'd'}: {a_file} is a file" in one_line(err)
     code, _, err = cli(["generate", "--out", tmp_path / "d", "--scheduler", "bad::addr"], capsys)
     assert code == 2 and "--scheduler bad::addr: cannot connect" in one_line(err)
 
