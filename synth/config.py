@@ -59,8 +59,14 @@ class Finger:
     #: ridges are 100-300 um wide, about 500 um apart (Maltoni et al. 2009, Handbook of
     #: Fingerprint Recognition, ch. 3); a ridge pressed flat touches across its width.
     ridge_width_m: float = 0.15e-3
-    #: Ridges in contact along the sliding direction (contact patch ~3 mm / spacing).
-    ridges_in_contact: int = 7
+    #: The ridges that touch the surface. ``None``: the fingerprint covers the pad
+    #: (``2 pad_radius_m / ridge_spacing_m + 1`` ridges) and every ridge inside the
+    #: skin's Hertz contact touches: 10 at 1 N (a 4.8 mm wide contact), more under
+    #: a larger load. Each is weighted by its chord of the contact circle (a ridge's line
+    #: contact is a spring as stiff as it is long, and the pad follows the stiffness-
+    #: weighted mean height). An integer: that many ridges around the contact centre,
+    #: weighted equally, whatever the load (a fingerprint patch smaller than the contact).
+    ridges_in_contact: int | None = None
     #: Irregularity of the ridge spacing (real fingerprints are not perfectly periodic).
     ridge_jitter: float = 0.25
     #: Height of the two strain-gauge sites above the pad's mount (phalanx as a cantilever).
@@ -83,9 +89,11 @@ class Finger:
         params.non_negative(self, "ridge_jitter", "skin_poisson")
         params.below(self, "skin_poisson", 0.5, "an elastic solid")
         params.below(self, "ridge_jitter", 0.5, "ridges must not swap order")
-        if not isinstance(self.ridges_in_contact, int) or self.ridges_in_contact < 1:
+        n = self.ridges_in_contact
+        if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
             raise ValueError(
-                f"Finger.ridges_in_contact must be an integer >= 1; got {self.ridges_in_contact!r}"
+                f"Finger.ridges_in_contact must be null (the ridges inside the contact) or an "
+                f"integer >= 1; got {n!r}"
             )
         ref = self.skin_solref
         if len(ref) != 2 or not (ref[0] > 0 and ref[1] > 0):

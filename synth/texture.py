@@ -11,8 +11,10 @@ height under the contact, and the slope's tangential push acts on the pad. A pad
 sticks feels a constant height; a pad that slows down feels the texture slow down.
 
 The skin touches the surface only with its fingerprint ridges (parallel springs), so the
-pad follows the *mean* height under the ridges in contact, each ridge averaging over its
-own contact width. That comb-and-box filter is the fingerprint's role in the contact
+pad follows the *mean* height under the ridges inside the skin's contact circle, each
+weighted by its chord of the circle (a longer line contact is a stiffer spring) and
+each averaging over its own contact width; a larger load widens the contact and brings
+more ridges in. That comb-and-box filter is the fingerprint's role in the contact
 model: it passes wavelengths near the ridge spacing and averages finer ones out. Across
 the path each ridge touches the surface along a chord of the contact circle and feels
 the mean height along it: random roughness is averaged down, and periodic marks are felt
@@ -109,14 +111,35 @@ def mark_gains(chords_m: np.ndarray, wavelengths_m: np.ndarray, angle_rad: float
 
 
 def ridge_offsets(finger: Finger) -> np.ndarray:
-    """Positions of the ridges in contact relative to the contact centre (m).
+    """Positions of the fingerprint's ridges relative to the contact centre (m): the
+    ridges covering the pad (``Finger.ridges_in_contact`` null) or the given number of
+    ridges around the centre.
 
     The fingerprint is the same in every trial: its irregularity comes from a fixed seed.
     """
+    n = finger.ridges_in_contact
+    if n is None:
+        n = int(2 * finger.pad_radius_m / finger.ridge_spacing_m) + 1
     # Every trial's plan needs them: computed once per fingerprint.
-    return _ridge_offsets(
-        finger.ridges_in_contact, finger.ridge_spacing_m, finger.ridge_jitter
-    ).copy()
+    return _ridge_offsets(n, finger.ridge_spacing_m, finger.ridge_jitter).copy()
+
+
+def touching_ridges(finger: Finger, contact_radius_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(offsets, weights)`` of the ridges that touch the surface in a contact of radius
+    ``contact_radius_m``; the pad follows ``sum(weights * height) / sum(weights)``.
+
+    With ``Finger.ridges_in_contact`` null, the ridges inside the contact circle, each
+    weighted by its chord (the nearest ridge alone, weight 1, if the circle holds none);
+    else the fixed number of ridges, weighted equally.
+    """
+    offsets = ridge_offsets(finger)
+    if finger.ridges_in_contact is not None:
+        return offsets, np.ones(offsets.size)
+    inside = np.abs(offsets) < contact_radius_m
+    if not inside.any():
+        return offsets[[np.argmin(np.abs(offsets))]], np.ones(1)
+    offsets = offsets[inside]
+    return offsets, 2.0 * np.sqrt(contact_radius_m**2 - offsets**2)
 
 
 @functools.lru_cache(maxsize=8)
@@ -150,14 +173,15 @@ def felt_surface(
     """The felt surface over path coordinates ``start_m..stop_m`` (plus the fingerprint's
     half-width on each side).
 
-    ``contact_radius_m`` is the radius of the skin's contact: each ridge touches the
-    surface along a chord of that circle across the sliding direction, and the random
-    roughness is averaged along the ridges' mean chord (0: a point contact, no averaging).
+    ``contact_radius_m`` is the radius of the skin's contact: the ridges inside it
+    (:func:`touching_ridges`) touch the surface along chords of that circle across the
+    sliding direction, and the random roughness is averaged along their mean chord (0: a
+    point contact on the ridge nearest its centre, no averaging).
     ``mark_angle_rad`` is the angle between the specimen's periodic marks and the ridges
     (the specimen's yaw in its fixture): each ridge feels a mark scaled by
     :func:`mark_gains` over its own chord.
     """
-    offsets = ridge_offsets(finger)
+    offsets, weights = touching_ridges(finger, contact_radius_m)
     margin = float(np.abs(offsets).max()) + finger.ridge_width_m + 4 * GRID_M
     length = stop_m - start_m + 2 * margin
     chords = 2.0 * np.sqrt(np.maximum(contact_radius_m**2 - offsets**2, 0.0))
@@ -174,7 +198,10 @@ def felt_surface(
     shifted = np.empty((offsets.size, rough.size))
     for row, o, gain in zip(shifted, offsets, gains, strict=True):
         row[:] = np.interp(grid + o, grid, rough + gain @ marks)
-    felt = np.mean(shifted, axis=0)
+    if finger.ridges_in_contact is None:
+        felt = weights @ shifted / weights.sum()
+    else:
+        felt = np.mean(shifted, axis=0)  # equal weights, summed as a plain mean
     slope = np.gradient(felt, GRID_M)
     return FeltSurface(origin_m=start_m - margin, height_m=felt, slope=slope)
 

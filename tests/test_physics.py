@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import mujoco
 import numpy as np
@@ -330,10 +331,12 @@ def test_pvdf_spectrum_peaks_at_speed_over_wavelength():
     """A purely periodic texture of wavelength L gives a PVDF peak at v / L.
 
     L = 0.45 mm, the fingerprint's ridge spacing, which the ridges pass best (Scheibert et
-    al. 2009); 8 and 16 mm/s put v / L at 18 and 36 Hz.
+    al. 2009); 8 and 16 mm/s put v / L at 18 and 36 Hz. The marks are 2 um deep, so the
+    push of their slope (about 0.02 N) leaves the sliding steady; marks several times
+    deeper modulate the slip speed by about its mean and the response gains harmonics.
     """
     wavelength = 0.45e-3
-    periodic = Texture(0.0, 1e-4, (Periodic(wavelength_m=wavelength, amplitude_m=10e-6),))
+    periodic = Texture(0.0, 1e-4, (Periodic(wavelength_m=wavelength, amplitude_m=2e-6),))
     config = _with_material(FLAT, "resin", texture=periodic)
     for speed in (8.0, 16.0):
         trial = _flat("resin", speed_mm_s=speed, config=config)
@@ -433,8 +436,8 @@ def test_line_average_variance_matches_a_simulated_average():
 def test_the_ridges_line_contact_averages_roughness_but_not_marks():
     """Random roughness felt through a contact of radius a is smaller than a point's by
     the line-average factor of the ridges' mean chord; periodic marks across the path are
-    felt in full."""
-    finger = SynthConfig().finger
+    felt in full. (A fixed set of ridges, so that only the chords change with a.)"""
+    finger = dataclasses.replace(SynthConfig().finger, ridges_in_contact=7)
     rough = Texture(roughness_rms_m=2e-6, correlation_length_m=40e-6)
     marks = Texture(0.0, 1e-4, periodic=(Periodic(wavelength_m=0.5e-3, amplitude_m=1e-6),))
 
@@ -458,8 +461,9 @@ def test_marks_at_an_angle_to_the_ridges_are_felt_as_their_mean_along_each_chord
     finger = SynthConfig().finger
     wavelength, amplitude, a = 85e-6, 1e-6, 2.4e-3
     marks = Texture(0.0, 1e-4, periodic=(Periodic(wavelength_m=wavelength, amplitude_m=amplitude),))
-    offsets = synth.texture.ridge_offsets(finger)
+    offsets, weights = synth.texture.touching_ridges(finger, a)
     chords = 2 * np.sqrt(a**2 - offsets**2)
+    np.testing.assert_array_equal(weights, chords)
     grid = synth.texture.GRID_M
     width = round(finger.ridge_width_m / grid)
 
@@ -476,7 +480,8 @@ def test_marks_at_an_angle_to_the_ridges_are_felt_as_their_mean_along_each_chord
     for angle in (0.004, 0.01, 0.03):
         # The surface at path coordinate x and across-path y: marks along the specimen's
         # y axis, turned by the angle. Each ridge averages it along its chord (y) and
-        # over its width (x, the box filter), the pad over the ridges.
+        # over its width (x, the box filter), the pad over the ridges, each weighted by
+        # its chord.
         y = np.linspace(-0.5, 0.5, 401)
         expected = np.zeros_like(s)
         for o, c in zip(offsets, chords, strict=True):
@@ -484,12 +489,50 @@ def test_marks_at_an_angle_to_the_ridges_are_felt_as_their_mean_along_each_chord
             xs = s[:, None] + o + (np.arange(width) - width // 2)[None, :] * grid
             u = xs[..., None] + (c * y * np.tan(angle))[None, None, :]
             h = amplitude * np.cos(2 * np.pi * u / wavelength + phase)
-            expected += h.mean(axis=(1, 2))
-        expected /= offsets.size
+            expected += c * h.mean(axis=(1, 2))
+        expected /= chords.sum()
         got = felt(angle).height_m
         scale = np.abs(expected[inner]).max()
         assert np.abs(got[inner] - expected[inner]).max() < 0.02 * scale, angle
         assert np.std(got[inner]) < np.std(aligned.height_m[inner])
+
+
+def test_the_ridges_inside_the_contact_touch_and_a_larger_load_brings_more_in():
+    """The ridges that touch are the fingerprint's ridges inside the Hertz contact circle
+    (weighted by their chords): a wider contact under a larger load holds more of them,
+    and averages the random roughness further down."""
+    finger = SynthConfig().finger
+    everything = synth.texture.ridge_offsets(finger)
+    assert everything.size == 32  # the fingerprint covers the 14 mm pad
+    rough = Texture(roughness_rms_m=2e-6, correlation_length_m=40e-6)
+    counts, felt_rms = [], []
+    for force in (0.3, 1.0, 3.0):
+        a = math.sqrt(
+            finger.pad_radius_m
+            * synth.contact.hertz_indentation_m(
+                force, finger.pad_radius_m, finger.skin_modulus_pa, finger.skin_poisson
+            )
+        )
+        offsets, weights = synth.texture.touching_ridges(finger, a)
+        np.testing.assert_array_equal(offsets, everything[np.abs(everything) < a])
+        assert np.all(weights > 0) and np.all(weights <= 2 * a)
+        counts.append(offsets.size)
+        rng = np.random.default_rng(3)
+        felt = synth.texture.felt_surface(rough, finger, 0.0, 0.5, rng, contact_radius_m=a)
+        felt_rms.append(np.std(felt.height_m))
+    assert counts[0] < counts[1] < counts[2] and counts[1] == 10
+    assert felt_rms[0] > felt_rms[1] > felt_rms[2]
+    # a point contact rests on the ridge nearest its centre
+    offsets, weights = synth.texture.touching_ridges(finger, 0.0)
+    assert offsets.size == 1 and abs(offsets[0]) == np.abs(everything).min()
+
+
+def test_a_fixed_number_of_ridges_is_accepted_or_refused_by_name():
+    base = SynthConfig().finger
+    assert dataclasses.replace(base, ridges_in_contact=7).ridges_in_contact == 7
+    for bad in (0, 2.5, True, "7"):
+        with pytest.raises(ValueError, match=r"Finger\.ridges_in_contact"):
+            dataclasses.replace(base, ridges_in_contact=bad)
 
 
 @pytest.mark.parametrize(
