@@ -521,7 +521,7 @@ def test_the_ridges_inside_the_contact_touch_and_a_larger_load_brings_more_in():
         felt = synth.texture.felt_surface(rough, finger, 0.0, 0.5, rng, contact_radius_m=a)
         felt_rms.append(np.std(felt.height_m))
     assert counts[0] < counts[1] < counts[2] and counts[1] == 10
-    assert felt_rms[0] > felt_rms[1] > felt_rms[2]
+    assert felt_rms[0] > 1.2 * felt_rms[1] and felt_rms[1] > 1.2 * felt_rms[2]  # ~1.4-1.5x
     # a point contact rests on the ridge nearest its centre
     offsets, weights = synth.texture.touching_ridges(finger, 0.0)
     assert offsets.size == 1 and abs(offsets[0]) == np.abs(everything).min()
