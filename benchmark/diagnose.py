@@ -39,6 +39,7 @@ import numpy as np
 
 from shapes import SHAPE_NAMES
 from synth import CHANNELS, CLASS_NAMES, MATERIAL_NAMES, SAMPLE_RATE_HZ, Dataset
+from synth.atomic import check_dir_path
 
 from .splits import condition_name
 
@@ -1032,8 +1033,6 @@ def write_curves(diag: Diagnosis, path: str | Path) -> Path:
 def check_out_dir(out: str | Path, arg: str = "--out") -> None:
     """``NotADirectoryError`` naming ``arg`` if ``out`` or one of its parents is a file
     (checked before the diagnosis runs, so a bad ``--out`` fails at once)."""
-    from synth.atomic import check_dir_path
-
     if Path(out).exists() and not Path(out).is_dir():
         raise NotADirectoryError(f"{arg} {out} is a file; choose a directory")
     check_dir_path(out, arg)

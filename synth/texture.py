@@ -201,7 +201,9 @@ def felt_surface(
     if finger.ridges_in_contact is None:
         felt = weights @ shifted / weights.sum()
     else:
-        felt = np.mean(shifted, axis=0)  # equal weights, summed as a plain mean
+        # Equal weights, summed as a plain mean: a store made with a fixed ridge count
+        # regenerates bit for bit.
+        felt = np.mean(shifted, axis=0)
     slope = np.gradient(felt, GRID_M)
     return FeltSurface(origin_m=start_m - margin, height_m=felt, slope=slope)
 
