@@ -39,7 +39,7 @@ from . import scene as scene_mod
 from . import texture as texture_mod
 from .config import SynthConfig
 from .materials import FrictionLaw
-from .texture import FeltSurface
+from .texture import FeltSurface, LoadedSurface
 
 
 @dataclass(frozen=True)
@@ -49,7 +49,9 @@ class LoopTrial:
     x_ref, y_ref: ``(steps,)`` the robot's x/y path set points; force_n: the normal force
     set point; friction: the material's law and ``friction_scale`` this stroke's scatter
     factor; surface: the felt texture along the path direction ``direction`` (unit x/y
-    vector), whose path coordinate is ``s = p . direction``; z_ref0: initial z set point.
+    vector), whose path coordinate is ``s = p . direction`` (a :class:`LoadedSurface` is
+    read at the simulated normal load, a :class:`FeltSurface` is felt the
+    same under any load); z_ref0: initial z set point.
     """
 
     x_ref: np.ndarray
@@ -57,7 +59,7 @@ class LoopTrial:
     force_n: float
     friction: FrictionLaw
     friction_scale: float
-    surface: FeltSurface
+    surface: FeltSurface | LoadedSurface
     direction: tuple[float, float]
     z_ref0: float
 
@@ -116,8 +118,8 @@ class ClosedLoop:
         self.load_exp = np.array([t.friction.load_exponent for t in self.trials])
         self.scale = np.array([t.friction_scale for t in self.trials])
         self.dir = np.array([t.direction for t in self.trials])  # (b, 2)
-        self.texture = texture_mod.TextureTable(
-            *texture_mod.stack_surfaces([t.surface for t in self.trials])
+        self.texture = texture_mod.texture_table(
+            [texture_mod.as_loaded(t.surface) for t in self.trials]
         )
         self.x_ref = np.stack([t.x_ref for t in self.trials])
         self.y_ref = np.stack([t.y_ref for t in self.trials])
@@ -211,8 +213,9 @@ class ClosedLoop:
                 frictions, self.friction(slip_speed, normal).tolist(), strict=True
             ):
                 arr[mu_at] = value
-            # Texture under the contact, extrapolated over the period.
-            h, slope = self.texture(s_now[:, None] + v_now[:, None] * ahead)
+            # Texture under the contact, extrapolated over the period, as felt by the
+            # ridges inside the contact the simulated load makes.
+            h, slope = self.texture(s_now[:, None] + v_now[:, None] * ahead, normal)
             push = slope * -normal[:, None]
             force = push[:, :, None] * direction[:, None, :]  # (b, k, 2): F_x, F_y
             control[:, :, 0:2] = xy_seg[:, g]

@@ -217,22 +217,25 @@ def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
             force, finger.pad_radius_m, finger.skin_modulus_pa, finger.skin_poisson
         )
     )
-    surface = texture.felt_surface(
+    # The surface as felt at every contact radius the simulated load can make; the closed
+    # loop reads the one of the load it simulates.
+    surface = texture.loaded_surface(
         material.texture,
         finger,
         float(s_path[0]) - 2 * finger.pad_radius_m,
         float(s_path[-1]) + 2 * finger.pad_radius_m,
         np.random.default_rng(texture_ss),
-        contact_radius_m=math.sqrt(finger.pad_radius_m * sink),  # Hertz: a^2 = R delta
+        force_n=force,
         mark_angle_rad=yaw,  # the marks run along the specimen's y, the ridges along the robot's
     )
+    resting = surface.at(force)
     sc = scene_mod.scene(spec.shape, config)
     qpos = np.zeros(sc.model.nq)
     qi = sc.qpos_index
     preload = force / finger.pdms_normal_stiffness_n_m
     h0 = float(
         texture.look_up(
-            np.array([surface.origin_m]), surface.height_m[None], np.array([[s_path[0]]])
+            np.array([resting.origin_m]), resting.height_m[None], np.array([[s_path[0]]])
         )[0, 0]
     )
     qpos[qi["robot_x"]] = x_ref[0]

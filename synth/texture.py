@@ -36,11 +36,32 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal
 
+from . import contact
 from .config import Finger
 from .materials import Texture
 
 #: Spatial resolution of generated profiles (finest material feature is ~20 um).
 GRID_M = 5e-6
+
+#: Normal loads at which a load-following felt surface is tabulated: the set-point force
+#: times ``LOAD_RATIO ** j`` for ``j`` in ``LOAD_LAYERS``, 0.5-2 times it. The simulated
+#: load stays within 0.6-1.7 times the set point in 999 samples of 1000 over the
+#: presets' conditions (0.46-2.1 at the extremes); a load beyond the layers feels the
+#: outermost one. Hertz's contact radius grows as the load's cube root, so the layers'
+#: radii are 12 % apart. Between layers the felt surface is interpolated linearly in the
+#: load's logarithm: a ridge entering the contact adds a chord that grows from 0, so the
+#: surface changes continuously with the load, and the interpolated ridge weights stay
+#: within about 2 % of their total.
+LOAD_RATIO = math.sqrt(2.0)
+LOAD_LAYERS = range(-2, 3)
+
+
+def contact_radius_m(finger: Finger, force_n):
+    """Hertz contact radius ``a = sqrt(R delta)`` of the skin under ``force_n`` (elementwise)."""
+    delta = contact.hertz_indentation_m(
+        force_n, finger.pad_radius_m, finger.skin_modulus_pa, finger.skin_poisson
+    )
+    return np.sqrt(finger.pad_radius_m * delta)
 
 
 def line_average_variance(correlation_length_m: float, line_length_m: float) -> float:
@@ -208,6 +229,149 @@ def felt_surface(
     return FeltSurface(origin_m=start_m - margin, height_m=felt, slope=slope)
 
 
+@dataclass(frozen=True)
+class LoadedSurface:
+    """One trial's felt surface under several normal loads: ``height_m[j, i]`` and
+    ``slope[j, i]`` at path coordinate ``origin_m + i * GRID_M`` under the load
+    ``loads_n[j]`` (a contact of radius ``radii_m[j]``). The loads grow geometrically by
+    ``LOAD_RATIO``; a single layer is a surface felt the same under any load."""
+
+    origin_m: float
+    loads_n: np.ndarray
+    radii_m: np.ndarray
+    height_m: np.ndarray
+    slope: np.ndarray
+
+    @classmethod
+    def fixed(cls, surface: FeltSurface) -> LoadedSurface:
+        """``surface`` felt the same whatever the load."""
+        nan = np.array([np.nan])
+        return cls(surface.origin_m, nan, nan, surface.height_m[None], surface.slope[None])
+
+    def at(self, load_n: float) -> FeltSurface:
+        """The surface felt under ``load_n`` (interpolated between layers)."""
+        j, u = layer_position(self.loads_n[0], self.loads_n.size, np.array([load_n]))
+        j, u = int(j[0]), float(u[0])
+        above = min(j + 1, self.loads_n.size - 1)
+        height = self.height_m[j] + (self.height_m[above] - self.height_m[j]) * u
+        slope = self.slope[j] + (self.slope[above] - self.slope[j]) * u
+        return FeltSurface(self.origin_m, height, slope)
+
+
+def as_loaded(surface: FeltSurface | LoadedSurface) -> LoadedSurface:
+    """``surface`` as a :class:`LoadedSurface` (a :class:`FeltSurface` as one layer)."""
+    return surface if isinstance(surface, LoadedSurface) else LoadedSurface.fixed(surface)
+
+
+def layer_position(
+    first_load_n: np.ndarray | float, layers: int, load_n: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(j, u)``: for each normal load ``load_n``, the layer below it among ``layers``
+    geometric layers from ``first_load_n`` and the fraction of the way (in the load's
+    logarithm) to the next one; clamped to the outermost layers, ``j`` is at most
+    ``layers - 2`` (0 with one layer)."""
+    load_n = np.asarray(load_n, dtype=float)
+    if layers == 1:
+        return np.zeros(load_n.shape, dtype=np.intp), np.zeros(load_n.shape)
+    pos = np.log(np.maximum(load_n, 1e-9) / first_load_n) * (1.0 / math.log(LOAD_RATIO))
+    np.clip(pos, 0.0, layers - 1.0, out=pos)
+    j = np.minimum(pos.astype(np.intp), layers - 2)
+    return j, pos - j
+
+
+def loaded_surface(
+    texture: Texture,
+    finger: Finger,
+    start_m: float,
+    stop_m: float,
+    rng: np.random.Generator,
+    *,
+    force_n: float,
+    mark_angle_rad: float = 0.0,
+) -> LoadedSurface:
+    """The felt surface over path coordinates ``start_m..stop_m`` under the loads of
+    ``LOAD_LAYERS`` around the set-point force ``force_n``, for a closed loop that reads
+    it at the simulated load.
+
+    The specimen's surface is one realisation (drawn once from ``rng``); each layer is
+    that surface as :func:`felt_surface` describes it for its radius: the ridges inside
+    the contact circle, weighted by their chords, each feeling the marks scaled by
+    :func:`mark_gains` over its chord, the roughness averaged along their mean chord. With
+    a fixed number of ridges (``Finger.ridges_in_contact`` an integer) the contact does
+    not change what the pad feels: one layer, :func:`felt_surface` at the set-point
+    force's radius.
+    """
+    if finger.ridges_in_contact is not None:
+        surface = felt_surface(
+            texture,
+            finger,
+            start_m,
+            stop_m,
+            rng,
+            contact_radius_m=float(contact_radius_m(finger, force_n)),
+            mark_angle_rad=mark_angle_rad,
+        )
+        return LoadedSurface.fixed(surface)
+    loads = force_n * LOAD_RATIO ** np.array(LOAD_LAYERS, dtype=float)
+    radii = contact_radius_m(finger, loads)
+    offsets = ridge_offsets(finger)
+    # Every ridge that touches in the widest layer (or the nearest one in a point contact).
+    near = np.abs(offsets) < radii[-1]
+    near[np.argmin(np.abs(offsets))] = True
+    offsets = offsets[near]
+    margin = float(np.abs(offsets).max()) + finger.ridge_width_m + 4 * GRID_M
+    length = stop_m - start_m + 2 * margin
+    # The roughness at unit averaging; each layer scales it for its own mean chord.
+    rough, marks = _profile_parts(texture, length, rng, 0.0)
+    width = max(1, round(finger.ridge_width_m / GRID_M))
+    if width > 1:
+        box = np.ones(width) / width
+        rough = np.convolve(rough, box, mode="same")
+        for row in marks:
+            row[:] = np.convolve(row, box, mode="same")
+    grid = np.arange(rough.size) * GRID_M
+    # What each ridge is under: (ridges, n) roughness and (ridges, marks, n) marks.
+    pad = math.ceil(margin / GRID_M) + 2
+    padded = np.pad(np.vstack([rough, marks]), ((0, 0), (pad, pad)), mode="edge")
+    under = np.stack([_shifted(padded, pad, o / GRID_M) for o in offsets])
+    ridge_rough, ridge_marks = under[:, 0], under[:, 1:]
+    wavelengths = np.array([c.wavelength_m for c in texture.periodic])
+    heights = np.empty((radii.size, grid.size))
+    for layer, a in zip(heights, radii, strict=True):
+        chords = 2.0 * np.sqrt(np.maximum(a * a - offsets**2, 0.0))
+        inside = chords > 0
+        if inside.any():
+            weights = chords
+            mean_chord = float(chords[inside].mean())
+        else:
+            weights = np.zeros(offsets.size)
+            weights[np.argmin(np.abs(offsets))] = 1.0
+            mean_chord = 0.0
+        scale = 0.0
+        if texture.roughness_rms_m > 0:
+            scale = math.sqrt(line_average_variance(texture.correlation_length_m, mean_chord))
+        gains = mark_gains(chords, wavelengths, mark_angle_rad) * weights[:, None]
+        felt = scale * weights @ ridge_rough
+        if gains.size:
+            felt += np.tensordot(gains, ridge_marks, axes=2)
+        layer[:] = felt / weights.sum()
+    slopes = np.gradient(heights, GRID_M, axis=1)
+    return LoadedSurface(start_m - margin, loads, radii, heights, slopes)
+
+
+def _shifted(padded: np.ndarray, pad: int, cells: float) -> np.ndarray:
+    """Rows of ``padded`` (each of ``n`` values padded with ``pad`` copies of its end
+    values on both sides) read ``cells`` grid steps further on, ``|cells| < pad``: linear
+    interpolation between grid points, the end values beyond the ends, like
+    ``np.interp(grid + cells * GRID_M, grid, row)``, by slicing."""
+    n = padded.shape[-1] - 2 * pad
+    whole = math.floor(cells)
+    frac = cells - whole
+    lo = padded[..., pad + whole : pad + whole + n]
+    hi = padded[..., pad + whole + 1 : pad + whole + 1 + n]
+    return lo * (1.0 - frac) + hi * frac
+
+
 def stack_surfaces(surfaces: list[FeltSurface]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(origins (b,), heights (b, n), slopes (b, n))``, shorter profiles padded with
     their last value, for vectorised look-ups across a batch."""
@@ -243,8 +407,11 @@ class TextureTable:
     with path coordinates ``(b, k)`` gives each trial's ``(height, slope)`` there, by
     linear interpolation between grid points as in :func:`look_up` (clamped to the rows'
     ends, elementwise per trial) written as ``start + rise * w``, so values can differ
-    from :func:`look_up`'s in the last bit.
+    from :func:`look_up`'s in the last bit. The surfaces are felt the same under any load:
+    a load, if given, is ignored.
     """
+
+    layers = 1
 
     def __init__(self, origins: np.ndarray, heights: np.ndarray, slopes: np.ndarray) -> None:
         b, n = heights.shape
@@ -258,7 +425,9 @@ class TextureTable:
         self._row_start = (np.arange(b) * (n - 1))[:, None]  # first cell of each row
         self._last = n - 1.000001  # clamp just inside the last cell
 
-    def __call__(self, coordinate_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def __call__(
+        self, coordinate_m: np.ndarray, load_n: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         pos = (coordinate_m - self._origins) * (1.0 / GRID_M)
         np.maximum(pos, 0.0, out=pos)
         np.minimum(pos, self._last, out=pos)
@@ -267,3 +436,61 @@ class TextureTable:
         i0 += self._row_start
         c = self._cells[i0]
         return c[..., 0] + c[..., 1] * w, c[..., 2] + c[..., 3] * w
+
+
+class LayeredTable:
+    """A batch's :class:`LoadedSurface` s (every trial with as many layers), ready for
+    look-ups under each trial's normal load: ``(height, slope)`` pairs per grid point,
+    interpolated linearly along the path (clamped to the rows' ends) and then between the
+    two layers around the load (:func:`layer_position`). Elementwise per trial, so
+    batch-independent."""
+
+    def __init__(self, surfaces: list[LoadedSurface]) -> None:
+        b, m = len(surfaces), surfaces[0].loads_n.size
+        n = max(s.height_m.shape[-1] for s in surfaces)
+        # Single precision: heights of micrometres keep ~1e-13 m, slopes ~1e-9, far below
+        # any mechanical effect, and the table (the batch's largest array) halves.
+        points = np.empty((b, m, n, 2), dtype=np.float32)
+        for row, s in zip(points, surfaces, strict=True):
+            size = s.height_m.shape[-1]
+            row[:, :size, 0] = s.height_m
+            row[:, size:, 0] = s.height_m[:, -1:]
+            row[:, :size, 1] = s.slope
+            row[:, size:, 1] = 0.0
+        self._points = points.reshape(-1, 2)
+        self._origins = np.array([s.origin_m for s in surfaces])[:, None]
+        self._first_load = np.array([s.loads_n[0] for s in surfaces])
+        self._row_start = (np.arange(b) * m * n)[:, None]  # first point of each trial
+        self._layer = n  # points from one layer to the next
+        # The four points around a reading: this grid point and the next, in the layer
+        # below the load and in the one above.
+        self._corners = np.array([0, 1, n, n + 1])
+        self._last = n - 1.000001  # clamp just inside the last interval
+        self.layers = m
+
+    def __call__(
+        self, coordinate_m: np.ndarray, load_n: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        pos = (coordinate_m - self._origins) * (1.0 / GRID_M)
+        np.maximum(pos, 0.0, out=pos)
+        np.minimum(pos, self._last, out=pos)
+        i0 = pos.astype(np.intp)
+        w = (pos - i0)[..., None]
+        j, u = layer_position(self._first_load, self.layers, load_n)
+        i0 += self._row_start + (j * self._layer)[:, None]
+        q = self._points[i0[..., None] + self._corners]  # (b, k, 4, 2)
+        below = q[..., 0, :] + (q[..., 1, :] - q[..., 0, :]) * w
+        above = q[..., 2, :] + (q[..., 3, :] - q[..., 2, :]) * w
+        felt = below + (above - below) * u[:, None, None]
+        return felt[..., 0], felt[..., 1]
+
+
+def texture_table(surfaces: list[LoadedSurface]) -> TextureTable | LayeredTable:
+    """The look-up table of a batch's surfaces: a :class:`TextureTable` when they are felt
+    the same under any load (one layer each), else a :class:`LayeredTable`."""
+    if all(s.loads_n.size == 1 for s in surfaces):
+        origins, heights, slopes = stack_surfaces(
+            [FeltSurface(s.origin_m, s.height_m[0], s.slope[0]) for s in surfaces]
+        )
+        return TextureTable(origins, heights, slopes)
+    return LayeredTable(surfaces)

@@ -527,6 +527,152 @@ def test_the_ridges_inside_the_contact_touch_and_a_larger_load_brings_more_in():
     assert offsets.size == 1 and abs(offsets[0]) == np.abs(everything).min()
 
 
+def test_each_load_layer_is_felt_through_the_ridges_inside_its_contact():
+    """A load-following surface holds one layer per tabulated load: the contact radius of
+    that load (Hertz), and the marks as the ridges inside that contact feel them (each
+    averaged over its width, weighted by its chord). A larger load brings more ridges in
+    and averages the random roughness further down."""
+    finger = SynthConfig().finger
+    wavelength, amplitude, force = 0.45e-3, 1e-6, 1.0
+    marks = Texture(0.0, 1e-4, periodic=(Periodic(wavelength_m=wavelength, amplitude_m=amplitude),))
+    surface = synth.texture.loaded_surface(
+        marks, finger, 0.0, 0.02, np.random.default_rng(11), force_n=force
+    )
+    ratios = synth.texture.LOAD_RATIO ** np.array(synth.texture.LOAD_LAYERS, dtype=float)
+    np.testing.assert_allclose(surface.loads_n, force * ratios)
+    np.testing.assert_allclose(
+        surface.radii_m, synth.texture.contact_radius_m(finger, surface.loads_n)
+    )
+    assert surface.loads_n.min() <= 0.5 * force and surface.loads_n.max() >= 2.0 * force
+    phase = np.random.default_rng(11).uniform(0, 2 * np.pi)  # the profile's one draw
+    grid = synth.texture.GRID_M
+    width = round(finger.ridge_width_m / grid)
+    s = np.arange(surface.height_m.shape[1]) * grid  # the profile's own coordinate
+    inner = slice(1000, -1000)
+    counts = []
+    for layer, a in zip(surface.height_m, surface.radii_m, strict=True):
+        offsets, weights = synth.texture.touching_ridges(finger, a)
+        counts.append(offsets.size)
+        expected = np.zeros_like(s)
+        for o, c in zip(offsets, weights, strict=True):
+            xs = s[:, None] + o + (np.arange(width) - width // 2)[None, :] * grid
+            expected += c * np.cos(2 * np.pi * xs / wavelength + phase).mean(axis=1)
+        expected *= amplitude / weights.sum()
+        scale = np.abs(expected[inner]).max()
+        assert np.abs(layer[inner] - expected[inner]).max() < 0.01 * scale, a
+    assert counts == sorted(counts) and counts[0] < counts[-1]
+    rough = Texture(roughness_rms_m=2e-6, correlation_length_m=40e-6)
+    felt = synth.texture.loaded_surface(
+        rough, finger, 0.0, 0.2, np.random.default_rng(3), force_n=force
+    )
+    rms = np.std(felt.height_m, axis=1)
+    assert np.all(np.diff(rms) < 0) and rms[0] > 1.3 * rms[-1]
+
+
+def test_a_fixed_number_of_ridges_feels_the_same_surface_under_any_load():
+    """With ``ridges_in_contact`` an integer the surface has one layer, the set-point
+    force's felt surface bit for bit (a store made so regenerates unchanged), and the
+    closed loop's table ignores the load."""
+    finger = dataclasses.replace(SynthConfig().finger, ridges_in_contact=7)
+    texture = synth.materials.MATERIALS["resin"].texture
+    loaded = synth.texture.loaded_surface(
+        texture, finger, 0.0, 0.02, np.random.default_rng(2), force_n=1.3
+    )
+    plain = synth.texture.felt_surface(
+        texture,
+        finger,
+        0.0,
+        0.02,
+        np.random.default_rng(2),
+        contact_radius_m=float(synth.texture.contact_radius_m(finger, 1.3)),
+    )
+    assert loaded.height_m.shape == (1, plain.height_m.size)
+    np.testing.assert_array_equal(loaded.height_m[0], plain.height_m)
+    np.testing.assert_array_equal(loaded.slope[0], plain.slope)
+    table = synth.texture.texture_table([loaded])
+    coord = np.array([[0.004, 0.01]])
+    light, heavy = table(coord.copy(), np.array([0.2])), table(coord.copy(), np.array([3.0]))
+    assert np.array_equal(light[0], heavy[0]) and np.array_equal(light[1], heavy[1])
+
+
+def test_the_layered_table_reads_each_trial_at_its_own_load():
+    """Under a tabulated load the table gives that layer (interpolated along the path);
+    between two, a value between theirs, linear in the load's logarithm; beyond the
+    outermost, the outermost layer; a trial's values do not depend on its batch."""
+    finger = SynthConfig().finger
+    texture = synth.materials.MATERIALS["wood"].texture
+    surfaces = [
+        synth.texture.loaded_surface(
+            texture, finger, 0.0, 0.01, np.random.default_rng(seed), force_n=force
+        )
+        for seed, force in ((1, 1.0), (2, 0.6), (3, 1.4))
+    ]
+    table = synth.texture.texture_table(surfaces)
+    assert isinstance(table, synth.texture.LayeredTable)
+    coord = np.array([[0.002, 0.0050001], [0.003, 0.007], [0.001, 0.004]])
+
+    def layer_values(i, j):
+        s = surfaces[i]
+        h = synth.texture.look_up(np.array([s.origin_m]), s.height_m[j][None], coord[i : i + 1])
+        g = synth.texture.look_up(np.array([s.origin_m]), s.slope[j][None], coord[i : i + 1])
+        return h[0], g[0]
+
+    for j in range(surfaces[0].loads_n.size):
+        loads = np.array([s.loads_n[j] for s in surfaces])
+        h, g = table(coord.copy(), loads)
+        for i in range(3):
+            want_h, want_g = layer_values(i, j)
+            np.testing.assert_allclose(h[i], want_h, rtol=1e-6, atol=1e-12)
+            np.testing.assert_allclose(g[i], want_g, rtol=1e-6, atol=1e-6)
+    # A third of the way (in log load) from layer 1 to layer 2.
+    loads = np.array([s.loads_n[1] * synth.texture.LOAD_RATIO ** (1 / 3) for s in surfaces])
+    h, _ = table(coord.copy(), loads)
+    for i in range(3):
+        low, high = layer_values(i, 1)[0], layer_values(i, 2)[0]
+        np.testing.assert_allclose(h[i], low + (high - low) / 3, rtol=1e-5, atol=1e-12)
+        at = surfaces[i].at(float(loads[i]))
+        np.testing.assert_allclose(
+            h[i],
+            synth.texture.look_up(np.array([at.origin_m]), at.height_m[None], coord[i : i + 1])[0],
+            rtol=1e-5,
+            atol=1e-12,
+        )
+    # Beyond the layers: the outermost ones (no load at all: the lightest).
+    h, _ = table(coord.copy(), np.array([0.0, 0.01, 100.0]))
+    np.testing.assert_allclose(h[0], layer_values(0, 0)[0], rtol=1e-6, atol=1e-12)
+    np.testing.assert_allclose(h[2], layer_values(2, -1)[0], rtol=1e-6, atol=1e-12)
+    alone = synth.texture.texture_table(surfaces[1:2])(coord[1:2].copy(), np.array([0.9]))
+    both = table(coord.copy(), np.array([1.0, 0.9, 1.4]))
+    assert np.array_equal(alone[0], both[0][1:2]) and np.array_equal(alone[1], both[1][1:2])
+
+
+def test_the_felt_surface_follows_the_simulated_load():
+    """The closed loop reads the felt surface at the normal load it simulates: with
+    layers of constant, distinct heights, the specimen is driven every update period to
+    the height of the load the contact carried at the end of the period before."""
+    config = SynthConfig()
+    plan = sim.plan(TrialSpec("pentagram", "wood", seed=4), config)
+    real = plan.loop.surface
+    n = real.height_m.shape[1]
+    levels = np.arange(real.loads_n.size) * 1e-6  # 1 um per layer
+    marker = dataclasses.replace(
+        real, height_m=np.repeat(levels[:, None], n, axis=1), slope=np.zeros((levels.size, n))
+    )
+    plan = dataclasses.replace(plan, loop=dataclasses.replace(plan.loop, surface=marker))
+    sens, heights = sim._roll([plan], [mujoco.MjData(plan.model)], config)
+    cols = scene_mod.sensor_columns()
+    found = sens[0, :, cols["contact"].start] > 0
+    normal = np.where(found, -sens[0, :, cols["contact"].start + 3], 0.0)
+    k = config.motion.surface_steps
+    periods = heights.shape[1] // k
+    load = np.concatenate([[plan.loop.force_n], normal[k - 1 :: k][: periods - 1]])
+    pos = np.log(np.maximum(load, 1e-9) / real.loads_n[0]) / np.log(synth.texture.LOAD_RATIO)
+    want = np.clip(pos, 0, levels.size - 1) * 1e-6
+    got = heights[0, ::k][:periods]
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+    assert np.ptp(got) > 0.3e-6  # the load (and so the felt layer) changed at the edges
+
+
 def test_a_fixed_number_of_ridges_is_accepted_or_refused_by_name():
     base = SynthConfig().finger
     assert dataclasses.replace(base, ridges_in_contact=7).ridges_in_contact == 7
