@@ -14,8 +14,9 @@ the next period's inputs from it:
 - **texture**: the height and slope of the felt surface under the skin's contacting
   material (the skin's bottom point: it moves over the surface only when the skin
   slips, so a stuck pad feels a still surface), extrapolated over the period with its
-  simulated slip velocity, drive the specimen's height and the slope's tangential push
-  on the pad (at the contact point).
+  simulated slip velocity, and felt by the ridges inside the contact of the simulated
+  normal load, drive the specimen's height and the slope's tangential push on the pad
+  (at the contact point).
 
 Nothing here sees the planned path except the x/y servo set points themselves; every
 texture and friction input comes from where the pad is and how it moves. Each trial's

@@ -61,11 +61,12 @@ class Finger:
     ridge_width_m: float = 0.15e-3
     #: The ridges that touch the surface. ``None``: the fingerprint covers the pad
     #: (``2 pad_radius_m / ridge_spacing_m + 1`` ridges) and every ridge inside the
-    #: skin's Hertz contact touches: 10 at 1 N (a 4.8 mm wide contact), more under
-    #: a larger load. Each is weighted by its chord of the contact circle (a ridge's line
-    #: contact is a spring as stiff as it is long, and the pad follows the stiffness-
-    #: weighted mean height). An integer: that many ridges around the contact centre,
-    #: weighted equally, whatever the load (a fingerprint patch smaller than the contact).
+    #: skin's Hertz contact under the simulated load touches: 10 at 1 N (a 4.8 mm wide
+    #: contact), more under a larger load. Each is weighted by its chord of the contact
+    #: circle (a ridge's line contact is a spring as stiff as it is long, and the pad
+    #: follows the stiffness-weighted mean height). An integer: that many ridges around
+    #: the contact centre, weighted equally, whatever the load (a fingerprint patch
+    #: smaller than the contact).
     ridges_in_contact: int | None = None
     #: Irregularity of the ridge spacing (real fingerprints are not perfectly periodic).
     ridge_jitter: float = 0.25

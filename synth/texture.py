@@ -14,12 +14,15 @@ The skin touches the surface only with its fingerprint ridges (parallel springs)
 pad follows the *mean* height under the ridges inside the skin's contact circle, each
 weighted by its chord of the circle (a longer line contact is a stiffer spring) and
 each averaging over its own contact width; a larger load widens the contact and brings
-more ridges in. That comb-and-box filter is the fingerprint's role in the contact
-model: it passes wavelengths near the ridge spacing and averages finer ones out. Across
-the path each ridge touches the surface along a chord of the contact circle and feels
-the mean height along it: random roughness is averaged down, and periodic marks are felt
-in full only when they run parallel to the ridges; a specimen turned in its fixture
-turns its marks against the ridges and they fade (:func:`mark_gains`).
+more ridges in. The contact is the simulated load's: a trial's surface is tabulated
+under a few loads around the set force (:func:`loaded_surface`) and read under the load
+the contact carries (:class:`LayeredTable`). That comb-and-box filter is the
+fingerprint's role in the contact model: it passes wavelengths near the ridge spacing
+and averages finer ones out. Across the path each ridge touches the surface along a
+chord of the contact circle and feels the mean height along it: random roughness is
+averaged down, and periodic marks are felt in full only when they run parallel to the
+ridges; a specimen turned in its fixture turns its marks against the ridges and they
+fade (:func:`mark_gains`).
 
 The felt surface is also inclined by its local slope ``dh/ds``: the contact normal tilts,
 so the contact force gains a tangential component ``-slope * F_n`` (pointing downhill)
@@ -44,14 +47,14 @@ from .materials import Texture
 GRID_M = 5e-6
 
 #: Normal loads at which a load-following felt surface is tabulated: the set-point force
-#: times ``LOAD_RATIO ** j`` for ``j`` in ``LOAD_LAYERS``, 0.5-2 times it. The simulated
-#: load stays within 0.6-1.7 times the set point in 999 samples of 1000 over the
-#: presets' conditions (0.46-2.1 at the extremes); a load beyond the layers feels the
-#: outermost one. Hertz's contact radius grows as the load's cube root, so the layers'
-#: radii are 12 % apart. Between layers the felt surface is interpolated linearly in the
-#: load's logarithm: a ridge entering the contact adds a chord that grows from 0, so the
-#: surface changes continuously with the load, and the interpolated ridge weights stay
-#: within about 2 % of their total.
+#: times ``LOAD_RATIO ** j`` for ``j`` in ``LOAD_LAYERS``, 0.5-2 times it. In the
+#: window, the simulated load stays within 0.5-1.7 times the set point in 999 samples
+#: of 1000 from 0.6 to 1.4 N and 5 to 20 mm/s (0.46-2.1 at the extremes); a load beyond
+#: the layers feels the outermost one. Hertz's contact radius grows as the load's cube
+#: root, so the layers' radii are 12 % apart. Between layers the felt surface is
+#: interpolated linearly in the load's logarithm: a ridge entering the contact adds a
+#: chord that grows from 0, so the surface changes continuously with the load, and the
+#: interpolated ridge weights stay within about 2 % of their total.
 LOAD_RATIO = math.sqrt(2.0)
 LOAD_LAYERS = range(-2, 3)
 
