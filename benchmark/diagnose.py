@@ -39,7 +39,7 @@ import numpy as np
 
 from shapes import SHAPE_NAMES
 from synth import CHANNELS, CLASS_NAMES, MATERIAL_NAMES, SAMPLE_RATE_HZ, Dataset
-from synth.atomic import check_dir_path
+from synth.atomic import check_out_dir as _check_out_dir
 
 from .splits import condition_name
 
@@ -1031,11 +1031,9 @@ def write_curves(diag: Diagnosis, path: str | Path) -> Path:
 
 
 def check_out_dir(out: str | Path, arg: str = "--out") -> None:
-    """``NotADirectoryError`` naming ``arg`` if ``out`` or one of its parents is a file
-    (checked before the diagnosis runs, so a bad ``--out`` fails at once)."""
-    if Path(out).exists() and not Path(out).is_dir():
-        raise NotADirectoryError(f"{arg} {out} is a file; choose a directory")
-    check_dir_path(out, arg)
+    """One-line error naming ``arg`` if ``out`` or one of its parents is a file (checked
+    before the diagnosis runs, so a bad ``--out`` fails at once)."""
+    _check_out_dir(out, arg)
 
 
 def write_diagnosis(diag: Diagnosis, out: str | Path, *, figures: bool = True) -> list[Path]:

@@ -69,8 +69,7 @@ class OutputDir:
     # -- checks ----------------------------------------------------------------------------
     def _check(self) -> None:
         out = self.out
-        if out.exists() and not out.is_dir():
-            raise FileExistsError(f"--out {out} is a file; choose a directory")
+        atomic.check_out_dir(out)
         inside = _dataset_containing(Path(os.path.abspath(out)))
         if inside is not None:
             raise ValueError(f"--out {out} lies inside the dataset {inside}; choose another DIR")

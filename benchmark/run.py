@@ -20,7 +20,7 @@ from typing import NamedTuple
 
 from models.registry import METHOD_NAMES
 from shapes.validation import check_int
-from synth import Dataset
+from synth import Dataset, atomic
 from synth.store import versions as store_versions
 from tactile_synth.threads import describe as describe_threads
 from tactile_synth.threads import settings
@@ -269,8 +269,7 @@ def run(
     if workers is not None:
         check_int("workers", workers, minimum=1)
     out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise FileExistsError(f"--out {out} is a file; choose a directory")
+    atomic.check_out_dir(out)
     plan = run_plan(quick, seed=seed, methods=methods)
     if "AFOP-ML" not in plan.methods:
         raise ValueError("methods must include AFOP-ML (the report and Fig. 6/7 are about it)")

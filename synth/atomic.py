@@ -42,6 +42,15 @@ def sibling(path: str | Path, role: str) -> Path:
     return p.parent / f".{p.name}{SUFFIX}-{role}"
 
 
+def check_out_dir(path: str | Path, arg: str = "--out", advice: str = "choose a directory") -> None:
+    """One-line errors naming ``arg`` when ``path`` cannot be an output directory:
+    ``FileExistsError`` if a file stands at ``path`` (the message ends with ``advice``),
+    ``NotADirectoryError`` if a file stands where one of its parents must be."""
+    if Path(path).exists() and not Path(path).is_dir():
+        raise FileExistsError(f"{arg} {path} is a file; {advice}")
+    check_dir_path(path, arg)
+
+
 def check_dir_path(path: str | Path, arg: str = "--out") -> None:
     """``NotADirectoryError`` naming ``arg`` if a file stands where ``path`` or one of its
     parent directories must be."""

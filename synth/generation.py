@@ -347,8 +347,7 @@ def prepare(
         )
     resume = resume or repair
     config = _resolve_config(config)
-    if out.exists() and not out.is_dir():
-        raise FileExistsError(f"--out {out} is a file; choose a directory path for the dataset")
+    atomic.check_out_dir(out, advice="choose a directory path for the dataset")
     pending = store.pending_path(out)
     atomic.recover(out, complete=store.is_complete(pending))
     occupied = out.exists() and any(out.iterdir())

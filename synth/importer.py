@@ -812,9 +812,7 @@ def import_recordings(
     labels = Path(labels) if labels is not None else recordings / LABELS_FILE
     _check_options(sample_rate_hz, window_start_s, chunk_trials)
     out = Path(out)
-    atomic.check_dir_path(out)
-    if out.exists() and not out.is_dir():
-        raise FileExistsError(f"--out {out} is a file; choose a directory path for the dataset")
+    atomic.check_out_dir(out, advice="choose a directory path for the dataset")
     for what, path in (("RECORDINGS", recordings), ("--labels", labels)):
         if out.exists() and _inside(path, out):
             raise ValueError(

@@ -510,6 +510,11 @@ def test_cli_errors_are_one_line_naming_the_path(tmp_path, capsys, monkeypatch):
     assert code == 2 and f"--out {a_file / 'ds'}: {a_file} is a file" in one_line(err)
     code, _, err = cli(["run", "--out", a_file / "run", "--quick"], capsys)
     assert code == 2 and f"--out {a_file / 'run'}: {a_file} is a file" in one_line(err)
+    # a file at --out itself: the same check for every command that writes a directory
+    code, _, err = cli(["generate", "--out", a_file, *GRID], capsys)
+    assert code == 2 and f"--out {a_file} is a file; choose a directory" in one_line(err)
+    code, _, err = cli(["run", "--out", a_file, "--quick"], capsys)
+    assert code == 2 and f"--out {a_file} is a file; choose a directory" in one_line(err)
     code, _, err = cli(["inspect", a_file], capsys)
     assert code == 2 and str(a_file) in one_line(err)
     code, _, err = cli(["inspect", tmp_path / "nothing"], capsys)
