@@ -51,8 +51,8 @@ class LoopTrial:
     set point; friction: the material's law and ``friction_scale`` this stroke's scatter
     factor; surface: the felt texture along the path direction ``direction`` (unit x/y
     vector), whose path coordinate is ``s = p . direction`` (a :class:`LoadedSurface` is
-    read at the simulated normal load, a :class:`FeltSurface` is felt the
-    same under any load); z_ref0: initial z set point.
+    read at the simulated normal load, a :class:`FeltSurface` is felt the same under any
+    load); z_ref0: initial z set point.
     """
 
     x_ref: np.ndarray
