@@ -140,10 +140,13 @@ def _start(out: Path) -> subprocess.Popen:
 
 
 def _wait_for_done_chunks(out: Path, proc: subprocess.Popen, at_least: int) -> None:
+    """Wait until ``at_least`` done flags are in place. zarr writes each chunk file as a
+    ``<name>.<uuid>.partial`` file beside it and renames it into place, so only the
+    chunks' own names (their indices) count."""
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline:
         done_dir = out / "done" / "c"
-        if done_dir.is_dir() and len(list(done_dir.iterdir())) >= at_least:
+        if done_dir.is_dir() and sum(f.name.isdigit() for f in done_dir.iterdir()) >= at_least:
             return
         assert proc.poll() is None, "the generation finished before it could be interrupted"
         time.sleep(0.02)
