@@ -39,7 +39,7 @@ import numpy as np
 
 from shapes import SHAPE_NAMES
 from synth import CHANNELS, CLASS_NAMES, MATERIAL_NAMES, SAMPLE_RATE_HZ, Dataset
-from synth.atomic import check_out_dir as _check_out_dir
+from synth.atomic import check_out_dir
 
 from .splits import condition_name
 
@@ -1030,12 +1030,6 @@ def write_curves(diag: Diagnosis, path: str | Path) -> Path:
     return path
 
 
-def check_out_dir(out: str | Path, arg: str = "--out") -> None:
-    """One-line error naming ``arg`` if ``out`` or one of its parents is a file (checked
-    before the diagnosis runs, so a bad ``--out`` fails at once)."""
-    _check_out_dir(out, arg)
-
-
 def write_diagnosis(diag: Diagnosis, out: str | Path, *, figures: bool = True) -> list[Path]:
     """Write ``diagnose.md``, ``diagnose.json``, ``diagnose.npz`` and (``figures``) the PNG
     figures into directory ``out`` (created if needed); returns the paths written."""
@@ -1075,7 +1069,7 @@ def run_diagnose(
     ``out`` when given."""
     say = progress or (lambda msg: None)
     if out is not None:
-        check_out_dir(out)
+        check_out_dir(out)  # before loading, so a bad --out fails at once
     data = load_for_diagnosis(path, allow_incomplete=allow_incomplete, progress=say)
     diag = diagnose(data, source=str(path), progress=say)
     if out is not None:

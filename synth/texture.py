@@ -211,13 +211,7 @@ def felt_surface(
     chords = 2.0 * np.sqrt(np.maximum(contact_radius_m**2 - offsets**2, 0.0))
     rough, marks = _profile_parts(texture, length, rng, float(chords.mean()))
     gains = mark_gains(chords, np.array([c.wavelength_m for c in texture.periodic]), mark_angle_rad)
-    # Each ridge averages over its contact width (moving box filter on the grid).
-    width = max(1, round(finger.ridge_width_m / GRID_M))
-    if width > 1:
-        box = np.ones(width) / width
-        rough = np.convolve(rough, box, mode="same")
-        for row in marks:
-            row[:] = np.convolve(row, box, mode="same")
+    rough = _over_ridge_width(finger, rough, marks)
     grid = np.arange(rough.size) * GRID_M
     shifted = np.empty((offsets.size, rough.size))
     for row, o, gain in zip(shifted, offsets, gains, strict=True):
@@ -230,6 +224,18 @@ def felt_surface(
         felt = np.mean(shifted, axis=0)
     slope = np.gradient(felt, GRID_M)
     return FeltSurface(origin_m=start_m - margin, height_m=felt, slope=slope)
+
+
+def _over_ridge_width(finger: Finger, rough: np.ndarray, marks: np.ndarray) -> np.ndarray:
+    """Each ridge averages over its contact width: a moving box filter on the grid. Returns
+    the filtered roughness; filters the marks ``(k, n)`` in place."""
+    width = max(1, round(finger.ridge_width_m / GRID_M))
+    if width == 1:
+        return rough
+    box = np.ones(width) / width
+    for row in marks:
+        row[:] = np.convolve(row, box, mode="same")
+    return np.convolve(rough, box, mode="same")
 
 
 @dataclass(frozen=True)
@@ -326,12 +332,7 @@ def loaded_surface(
     length = stop_m - start_m + 2 * margin
     # The roughness at unit averaging; each layer scales it for its own mean chord.
     rough, marks = _profile_parts(texture, length, rng, 0.0)
-    width = max(1, round(finger.ridge_width_m / GRID_M))
-    if width > 1:
-        box = np.ones(width) / width
-        rough = np.convolve(rough, box, mode="same")
-        for row in marks:
-            row[:] = np.convolve(row, box, mode="same")
+    rough = _over_ridge_width(finger, rough, marks)
     grid = np.arange(rough.size) * GRID_M
     # What each ridge is under: (ridges, n) roughness and (ridges, marks, n) marks.
     pad = math.ceil(margin / GRID_M) + 2
