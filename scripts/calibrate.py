@@ -11,20 +11,22 @@ source gives; nothing is tuned per shape, material or class.
         transient of the perturbation grid (every shape x material at 1.4 N, 14 mm/s)
         below 70 % of the DAQ's range.
     python3 scripts/calibrate.py sweep [--trials-per-class 20] [--seeds 1]
-                                       [--only SECTION.FIELD] [--out DIR]
+                                       [--only SECTION.FIELD] [--base SECTION.FIELD=VALUE]
+                                       [--out DIR]
         Each global parameter of SWEEP over its cited range (one at a time, the others at
-        their defaults): generates the paper grid, runs the leave-one-out diagnosis and
-        AFOP-ML's feature selection on the generalisation protocols' training splits,
-        and prints (and writes DIR/calibration.md and .json) the numbers the defaults
-        were chosen by: strain-gauge shape accuracy (target >= 0.95, every shape >= 0.85),
-        material accuracy per channel group, and the PVDF share of the selected features
-        and the median D on cross-shape and cross-material training splits (the paper's
-        real finger: 21 % and 50 %, D about 6 and 12). Only training splits are used: no
-        test accuracy enters. With ``--seeds N`` every candidate is generated from N
-        dataset seeds (0..N-1); the figures are their means, and the table adds the
-        shares' standard deviation over the seeds and their difference
-        ``pvdf_share_gap`` (cross-shape minus cross-material, negative on the real
-        finger), since one dataset's shares move by several points with its seed.
+        their defaults, or at the values ``--base`` sets, each within its parameter's cited
+        range, to see how two parameters act together): generates the paper grid, runs the
+        leave-one-out diagnosis and AFOP-ML's feature selection on the generalisation
+        protocols' training splits, and prints (and writes DIR/calibration.md and .json) the
+        numbers the defaults were chosen by: strain-gauge shape accuracy (target >= 0.95,
+        every shape >= 0.85), material accuracy per channel group, and the PVDF share of the
+        selected features and the median D on cross-shape and cross-material training splits
+        (the paper's real finger: 21 % and 50 %, D about 6 and 12). Only training splits are
+        used: no test accuracy enters. With ``--seeds N`` every candidate is generated from
+        N dataset seeds (0..N-1); the figures are their means, and the table adds the
+        shares' standard deviation over the seeds and their difference ``pvdf_share_gap``
+        (cross-shape minus cross-material, negative on the real finger), since one dataset's
+        shares move by several points with its seed.
 
 The sweep simulates 36 classes x ``--trials-per-class`` trials per candidate and seed
 (720 at the default of 20; about a minute each on 2 cores, and the selection adds about
@@ -82,6 +84,18 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
         "feedback_resistance_ohm",
         (1e9, 100e6, 10e6),
         "charge-amplifier high-pass 0.16 / 1.6 / 16 Hz",
+    ),
+    (
+        "finger",
+        "ridge_width_m",
+        (0.1e-3, 0.15e-3, 0.2e-3, 0.3e-3),
+        "a fingerprint ridge's contact width: ridges are 100-300 um wide (Maltoni et al.)",
+    ),
+    (
+        "finger",
+        "ridge_jitter",
+        (0.0, 0.1, 0.25, 0.4),
+        "irregularity of the ridge spacing: 0 a regular comb, up to 0.4 (ridges keep order)",
     ),
     (
         *TEXTURE_SCALE,
@@ -242,12 +256,44 @@ def _fmt(key: str, value: float) -> str:
     return f"{value:.3f}"
 
 
+def _parse_base(items: list[str] | None) -> list[tuple[str, str, float]]:
+    """``--base SECTION.FIELD=VALUE`` items as (section, field, value), each naming a
+    swept parameter once and a value inside the range its candidates span (its cited
+    range)."""
+    ranges = {f"{s}.{f}": (s, f, min(c), max(c)) for s, f, c, _ in SWEEP}
+    out: dict[str, tuple[str, str, float]] = {}
+    for item in items or ():
+        name, sep, text = item.partition("=")
+        if not sep or name not in ranges:
+            raise SystemExit(
+                f"--base must be SECTION.FIELD=VALUE with a swept parameter "
+                f"({', '.join(sorted(ranges))}); got {item!r}"
+            )
+        try:
+            value = float(text)
+        except ValueError:
+            raise SystemExit(f"--base {name} needs a number; got {text!r}") from None
+        section, field, lo, hi = ranges[name]
+        if not lo <= value <= hi:
+            raise SystemExit(
+                f"--base {name} must lie in its cited range {lo:g}..{hi:g}; got {value:g}"
+            )
+        if name in out:
+            raise SystemExit(f"--base sets {name} twice")
+        out[name] = (section, field, value)
+    return list(out.values())
+
+
 def cmd_sweep(args: argparse.Namespace) -> int:
     base = synth.SynthConfig()
     known = {f"{section}.{field}" for section, field, _, _ in SWEEP}
     for name in args.only or ():
         if name not in known:
             raise SystemExit(f"--only must name a swept parameter ({', '.join(sorted(known))})")
+    based = _parse_base(args.base)
+    for section, field, value in based:
+        base = _with(base, section, field, value)
+    base_values = {(section, field): value for section, field, value in based}
     rows = []
     done: dict[str, dict] = {}  # the default configuration recurs in every parameter's sweep
     with tempfile.TemporaryDirectory() as tmp:
@@ -255,7 +301,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         for section, field, candidates, why in SWEEP:
             if args.only and f"{section}.{field}" not in args.only:
                 continue
-            default = _default(base, section, field)
+            default = base_values.get((section, field), _default(base, section, field))
             for value in candidates:
                 t0 = time.perf_counter()
                 config = _with(base, section, field, value)
@@ -316,6 +362,12 @@ def main(argv: list[str] | None = None) -> int:
         action="append",
         metavar="SECTION.FIELD",
         help="sweep only this parameter (repeatable)",
+    )
+    p.add_argument(
+        "--base",
+        action="append",
+        metavar="SECTION.FIELD=VALUE",
+        help="sweep the others around this value of a swept parameter (repeatable)",
     )
     p.add_argument("--out", help="write calibration.md and calibration.json here")
     p.set_defaults(func=cmd_sweep)

@@ -37,6 +37,30 @@ def test_sweep_refuses_fewer_than_one_seed_by_name(capsys):
     assert "--seeds must be at least 1" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize(
+    ("item", "message"),
+    [
+        ("finger.skin_modulus_pa=1e5", "--base must be SECTION.FIELD=VALUE"),
+        ("variability.friction_rel", "--base must be SECTION.FIELD=VALUE"),
+        ("variability.friction_rel=high", "--base variability.friction_rel needs a number"),
+        ("variability.friction_rel=0.3", "must lie in its cited range 0.05..0.15"),
+        ("variability.yaw_rad=-0.001", "must lie in its cited range 0..0.02"),
+    ],
+)
+def test_sweep_refuses_a_base_value_outside_a_swept_parameters_range(item, message):
+    calibrate = _calibrate_module()
+    with pytest.raises(SystemExit, match=message):
+        calibrate.main(["sweep", "--base", item])
+
+
+def test_base_values_set_the_configuration_the_others_are_swept_around():
+    calibrate = _calibrate_module()
+    got = calibrate._parse_base(["variability.yaw_rad=0.01", "materials.texture_scale=0.5"])
+    assert got == [("variability", "yaw_rad", 0.01), ("materials", "texture_scale", 0.5)]
+    with pytest.raises(SystemExit, match="sets variability.yaw_rad twice"):
+        calibrate._parse_base(["variability.yaw_rad=0.01", "variability.yaw_rad=0.02"])
+
+
 def test_a_candidate_over_seeds_reports_means_the_share_gap_and_their_spread():
     calibrate = _calibrate_module()
     runs = [
