@@ -65,8 +65,20 @@ def test_base_values_set_the_configuration_the_others_are_swept_around():
 def test_a_candidate_over_seeds_reports_means_the_share_gap_and_their_spread():
     calibrate = _calibrate_module()
     runs = [
-        {"class_all": 0.9, "pvdf_share_cross_shape": 0.6, "pvdf_share_cross_material": 0.5},
-        {"class_all": 0.8, "pvdf_share_cross_shape": 0.4, "pvdf_share_cross_material": 0.5},
+        {
+            "class_all": 0.9,
+            "pvdf_share_cross_shape": 0.6,
+            "pvdf_share_cross_material": 0.5,
+            "pvdf_share_paper_d_cross_shape": 0.5,
+            "pvdf_share_paper_d_cross_material": 0.25,
+        },
+        {
+            "class_all": 0.8,
+            "pvdf_share_cross_shape": 0.4,
+            "pvdf_share_cross_material": 0.5,
+            "pvdf_share_paper_d_cross_shape": 1 / 6,
+            "pvdf_share_paper_d_cross_material": 0.5,
+        },
     ]
     got = calibrate._over_seeds(runs)
     assert got["class_all"] == pytest.approx(0.85)
@@ -76,6 +88,9 @@ def test_a_candidate_over_seeds_reports_means_the_share_gap_and_their_spread():
     assert got["pvdf_share_cross_shape_sd"] == pytest.approx(0.1414, abs=1e-4)
     assert got["pvdf_share_cross_material_sd"] == pytest.approx(0.0)
     assert got["pvdf_share_gap_sd"] == pytest.approx(0.1414, abs=1e-4)
+    # At the paper's D: gaps +0.25 and -1/3.
+    assert got["pvdf_share_paper_d_gap"] == pytest.approx((0.25 - 1 / 3) / 2)
+    assert got["pvdf_share_paper_d_gap_sd"] == pytest.approx((0.25 + 1 / 3) / 2**0.5)
     one = calibrate._over_seeds(runs[:1])
     assert one["pvdf_share_gap"] == pytest.approx(0.1)
     assert one["pvdf_share_gap_sd"] == 0.0
@@ -94,6 +109,12 @@ def test_selection_shares_follow_where_the_planted_information_lies(seed):
     # The median feature count each protocol's selections chose, out of the pool's.
     for key in ("d_cross_shape", "d_cross_material"):
         assert 1 <= shares[key] <= len(FEATURE_NAMES)
+    # The first 6 / 12 ranked features follow the planted information as well.
+    assert shares["pvdf_share_paper_d_cross_material"] < 0.35
+    assert (
+        shares["pvdf_share_paper_d_cross_shape"]
+        > shares["pvdf_share_paper_d_cross_material"] + 0.05
+    )
 
 
 def test_the_texture_scale_scales_every_texture_amplitude_and_nothing_else():
