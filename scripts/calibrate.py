@@ -26,7 +26,9 @@ source gives; nothing is tuned per shape, material or class.
         N dataset seeds (0..N-1); the figures are their means, and the table adds the
         shares' standard deviation over the seeds and their difference ``pvdf_share_gap``
         (cross-shape minus cross-material, negative on the real finger), since one dataset's
-        shares move by several points with its seed.
+        shares move by several points with its seed. The paper's shares are of its own D,
+        so the table also gives the share of each split's first 6 (cross-shape) and 12
+        (cross-material) ranked features and their gap (``pvdf_share_paper_d_*``).
 
 The sweep simulates 36 classes x ``--trials-per-class`` trials per candidate and seed
 (720 at the default of 20; about a minute each on 2 cores, and the selection adds about
@@ -322,7 +324,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         for section, field, candidates, why in SWEEP:
             if args.only and f"{section}.{field}" not in args.only:
                 continue
-            default = base_values.get((section, field), _default(base, section, field))
+            if (section, field) in base_values:
+                continue  # held at its --base value
+            default = _default(base, section, field)
             for value in candidates:
                 t0 = time.perf_counter()
                 config = _with(base, section, field, value)
@@ -388,7 +392,7 @@ def main(argv: list[str] | None = None) -> int:
         "--base",
         action="append",
         metavar="SECTION.FIELD=VALUE",
-        help="sweep the others around this value of a swept parameter (repeatable)",
+        help="hold a swept parameter at this value and sweep the others (repeatable)",
     )
     p.add_argument("--out", help="write calibration.md and calibration.json here")
     p.set_defaults(func=cmd_sweep)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.util
+import json
 import re
 from pathlib import Path
 
@@ -60,6 +61,35 @@ def test_base_values_set_the_configuration_the_others_are_swept_around():
     assert got == [("variability", "yaw_rad", 0.01), ("materials", "texture_scale", 0.5)]
     with pytest.raises(SystemExit, match=re.escape("sets variability.yaw_rad twice")):
         calibrate._parse_base(["variability.yaw_rad=0.01", "variability.yaw_rad=0.02"])
+
+
+def test_a_held_parameter_is_set_in_every_candidate_and_not_swept(tmp_path, monkeypatch):
+    calibrate = _calibrate_module()
+    seen = []
+
+    def evaluate(config, trials_per_class, where, seed):
+        seen.append((config.variability.friction_rel, config.variability.yaw_rad, seed))
+        return {
+            "class_all": 0.5,
+            "pvdf_share_cross_shape": 0.5,
+            "pvdf_share_cross_material": 0.5,
+            "pvdf_share_paper_d_cross_shape": 0.5,
+            "pvdf_share_paper_d_cross_material": 0.5,
+        }
+
+    monkeypatch.setattr(calibrate, "_evaluate", evaluate)
+    argv = ["sweep", "--base", "variability.friction_rel=0.05", "--out", str(tmp_path)]
+    argv += ["--only", "variability.friction_rel", "--only", "variability.yaw_rad"]
+    assert calibrate.main(argv) == 0
+    rows = json.loads((tmp_path / "calibration.json").read_text())
+    assert [r["parameter"] for r in rows] == ["variability.yaw_rad"] * 4
+    assert [r["default"] for r in rows] == [False, True, False, False]
+    assert sorted({(f, y) for f, y, _ in seen}) == [
+        (0.05, 0.0),
+        (0.05, 0.005),
+        (0.05, 0.01),
+        (0.05, 0.02),
+    ]
 
 
 def test_a_candidate_over_seeds_reports_means_the_share_gap_and_their_spread():
