@@ -279,12 +279,12 @@ def _fmt(key: str, value: float) -> str:
     return f"{value:.3f}"
 
 
-def _parse_base(items: list[str] | None) -> list[tuple[str, str, float]]:
-    """``--base SECTION.FIELD=VALUE`` items as (section, field, value), each naming a
+def _parse_base(items: list[str] | None) -> dict[tuple[str, str], float]:
+    """``--base SECTION.FIELD=VALUE`` items as ``{(section, field): value}``, each naming a
     swept parameter once and a value inside the range its candidates span (its cited
     range)."""
     ranges = {f"{s}.{f}": (s, f, min(c), max(c)) for s, f, c, _ in SWEEP}
-    out: dict[str, tuple[str, str, float]] = {}
+    out: dict[tuple[str, str], float] = {}
     for item in items or ():
         name, sep, text = item.partition("=")
         if not sep or name not in ranges:
@@ -297,14 +297,14 @@ def _parse_base(items: list[str] | None) -> list[tuple[str, str, float]]:
         except ValueError:
             raise SystemExit(f"--base {name} needs a number; got {text!r}") from None
         section, field, lo, hi = ranges[name]
+        if (section, field) in out:
+            raise SystemExit(f"--base sets {name} twice")
         if not lo <= value <= hi:
             raise SystemExit(
                 f"--base {name} must lie in its cited range {lo:g}..{hi:g}; got {value:g}"
             )
-        if name in out:
-            raise SystemExit(f"--base sets {name} twice")
-        out[name] = (section, field, value)
-    return list(out.values())
+        out[section, field] = value
+    return out
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
@@ -313,10 +313,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     for name in args.only or ():
         if name not in known:
             raise SystemExit(f"--only must name a swept parameter ({', '.join(sorted(known))})")
-    based = _parse_base(args.base)
-    for section, field, value in based:
+    held = _parse_base(args.base)
+    for (section, field), value in held.items():
         base = _with(base, section, field, value)
-    base_values = {(section, field): value for section, field, value in based}
     rows = []
     done: dict[str, dict] = {}  # the default configuration recurs in every parameter's sweep
     with tempfile.TemporaryDirectory() as tmp:
@@ -324,7 +323,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         for section, field, candidates, why in SWEEP:
             if args.only and f"{section}.{field}" not in args.only:
                 continue
-            if (section, field) in base_values:
+            if (section, field) in held:
                 continue  # held at its --base value
             default = _default(base, section, field)
             for value in candidates:

@@ -58,7 +58,7 @@ def test_sweep_refuses_a_base_value_outside_a_swept_parameters_range(item, messa
 def test_base_values_set_the_configuration_the_others_are_swept_around():
     calibrate = _calibrate_module()
     got = calibrate._parse_base(["variability.yaw_rad=0.01", "materials.texture_scale=0.5"])
-    assert got == [("variability", "yaw_rad", 0.01), ("materials", "texture_scale", 0.5)]
+    assert got == {("variability", "yaw_rad"): 0.01, ("materials", "texture_scale"): 0.5}
     with pytest.raises(SystemExit, match=re.escape("sets variability.yaw_rad twice")):
         calibrate._parse_base(["variability.yaw_rad=0.01", "variability.yaw_rad=0.02"])
 
