@@ -25,9 +25,10 @@ from .results import from_json, to_json
 
 #: Version of what a checkpoint's records hold (AFOP-ML's selection records with their
 #: selected features, a dscan record per AFOP-ML fit, the reference curve on the
-#: closed-set fit), part of the key: raise it when that changes, so that a resumed run
+#: closed-set fit, the within-condition summary of protocols testing several force/speed
+#: conditions), part of the key: raise it when that changes, so that a resumed run
 #: recomputes checkpoints that lack what it reads.
-LAYOUT: int = 2
+LAYOUT: int = 3
 
 
 def fingerprint(data: Dataset) -> str:

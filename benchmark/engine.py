@@ -9,7 +9,8 @@ on a task's fit pool and adapts it to every cell's episodes in one batched
 ``predict_episodes`` call (:func:`benchmark.evaluate.evaluate`, which also times single
 episodes when a cell asks for it); :func:`run_protocol` does this for one protocol and
 returns typed records (:mod:`benchmark.results`): accuracy per cell, across-fold pooled
-accuracy when the tasks have folds, and what each fit exposes (AFOP-ML's selection, a
+accuracy when the tasks have folds, across-condition accuracy when they test several
+force/speed conditions, and what each fit exposes (AFOP-ML's selection, a
 meta-learner's validation curve).
 
 The same episodes (same cell seeds) serve every method, and a method's fit seed is the
@@ -41,6 +42,7 @@ from models.base import FewShotMethod
 from models.stats import ci95
 from shapes.validation import check_int
 from synth import Dataset
+from synth.presets import parse_condition
 
 from .budget import EpisodeBudget
 from .episodes import sample_episodes
@@ -575,29 +577,46 @@ def pool_folds(scored: Iterable[Scored]) -> list[AccuracyRecord]:
     for s in scored:
         r = s.record
         groups.setdefault((r.protocol, r.condition, r.method, r.way, r.shot), []).append(s)
-    out: list[AccuracyRecord] = []
-    for ss in groups.values():
-        rs = [s.record for s in ss]
-        acc = np.concatenate([s.accuracies for s in ss]).astype(np.float64)
-        out.append(
-            replace(
-                rs[0],
-                fold=None,
-                episodes=int(acc.size),
-                accuracy=float(acc.mean()),
-                ci95=ci95(acc),
-                query=int(min(r.query for r in rs)),
-                pretrain_s=float(np.mean([r.pretrain_s for r in rs])),
-                adapt_ms_per_episode=float(np.mean([r.adapt_ms_per_episode for r in rs])),
-                latency_ms_per_episode=_mean_or_none([r.latency_ms_per_episode for r in rs]),
-                latency_with_features_ms_per_episode=_mean_or_none(
-                    [r.latency_with_features_ms_per_episode for r in rs]
-                ),
-                latency_episodes=int(sum(r.latency_episodes for r in rs)),
-                feature_dim=_median_or_none([r.feature_dim for r in rs]),
-            )
-        )
-    return out
+    return [_pooled(ss, fold=None) for ss in groups.values()]
+
+
+#: ``condition`` of the across-condition summary records (:func:`pool_conditions`).
+WITHIN_CONDITION = "within-condition"
+
+
+def pool_conditions(scored: Iterable[Scored]) -> list[AccuracyRecord]:
+    """Across-condition summary records (``condition=WITHIN_CONDITION``), one per
+    (protocol, fold, method, way, shot): the episodes of every force/speed condition
+    together, each episode's support and queries from one condition, summarised as
+    :func:`pool_folds` summarises folds (with equal budgets, the mean of the conditions'
+    accuracies)."""
+    groups: dict[tuple, list[Scored]] = {}
+    for s in scored:
+        r = s.record
+        groups.setdefault((r.protocol, r.fold, r.method, r.way, r.shot), []).append(s)
+    return [_pooled(ss, condition=WITHIN_CONDITION) for ss in groups.values()]
+
+
+def _pooled(ss: Sequence[Scored], **labels: object) -> AccuracyRecord:
+    """One summary record of ``ss`` (the first record's fields, with ``labels`` set)."""
+    rs = [s.record for s in ss]
+    acc = np.concatenate([s.accuracies for s in ss]).astype(np.float64)
+    return replace(
+        rs[0],
+        **labels,
+        episodes=int(acc.size),
+        accuracy=float(acc.mean()),
+        ci95=ci95(acc),
+        query=int(min(r.query for r in rs)),
+        pretrain_s=float(np.mean([r.pretrain_s for r in rs])),
+        adapt_ms_per_episode=float(np.mean([r.adapt_ms_per_episode for r in rs])),
+        latency_ms_per_episode=_mean_or_none([r.latency_ms_per_episode for r in rs]),
+        latency_with_features_ms_per_episode=_mean_or_none(
+            [r.latency_with_features_ms_per_episode for r in rs]
+        ),
+        latency_episodes=int(sum(r.latency_episodes for r in rs)),
+        feature_dim=_median_or_none([r.feature_dim for r in rs]),
+    )
 
 
 def _mean_or_none(values: Sequence[float | None]) -> float | None:
@@ -656,10 +675,19 @@ def protocol_tasks(
 
 def protocol_records(tasks: Sequence[Task], done: TaskResults) -> list[Record]:
     """The records of a protocol's tasks: accuracy per (task, method, cell), across-fold
-    pooled accuracy when the tasks have folds (:func:`pool_folds`), and the fits' records."""
+    pooled accuracy when the tasks have folds (:func:`pool_folds`), across-condition
+    accuracy when they test several force/speed conditions (:func:`pool_conditions`), and
+    the fits' records."""
     records: list[Record] = [s.record for s in done.scored]
     if any(t.fold is not None for t in tasks):
         records += pool_folds(s for s in done.scored if s.record.fold is not None)
+    by_condition = [
+        s
+        for s in done.scored
+        if s.record.fold is None and parse_condition(s.record.condition) is not None
+    ]
+    if len({s.record.condition for s in by_condition}) > 1:
+        records += pool_conditions(by_condition)
     return records + done.fits
 
 

@@ -25,6 +25,7 @@ from shapes import SHAPE_NAMES
 from synth import CHANNELS, MATERIAL_NAMES, SAMPLE_RATE_HZ, Dataset
 from synth.presets import NOMINAL_FORCE_N, NOMINAL_SPEED_MM_S
 
+from .engine import WITHIN_CONDITION
 from .interpret import Artefacts
 from .results import select
 from .splits import parse_condition
@@ -33,7 +34,7 @@ from .splits import parse_condition
 GENERALISATION_PANELS: tuple[tuple[str, str | None, str], ...] = (
     ("cross-shape", None, "(a) Cross-shape"),
     ("cross-material", None, "(b) Cross-material"),
-    ("perturbation", "pooled", "(c) Force-speed perturbation (pooled)"),
+    ("perturbation", WITHIN_CONDITION, "(c) Force-speed perturbation (within condition)"),
 )
 #: Bar order of Fig. 6 (the paper's: Shape, Closed-set, Force&Speed, Material).
 SELECTION_ORDER: tuple[tuple[str, str], ...] = (
@@ -400,7 +401,7 @@ def figure_notes(records: Sequence[Mapping[str, Any]], art: Artefacts, seed: int
     for protocol, cond in (
         ("cross-shape", None),
         ("cross-material", None),
-        ("perturbation", "pooled"),
+        ("perturbation", WITHIN_CONDITION),
     ):
         a2 = _one(records, protocol=protocol, condition=cond, fold=None, method="AFOP-ML", way=2)
         a12 = _one(records, protocol=protocol, condition=cond, fold=None, method="AFOP-ML", way=12)

@@ -176,8 +176,21 @@ def test_perturbation_fits_on_nominal_training_half(data, spy):
     train_idx, _test_idx = split_halves(data.label, seed=0)
     assert fits[0]["rows"] == _row_keys(data.signals[train_idx])
     assert not fits[0]["rows"] & _row_keys(both.signals)
-    conds = {r["condition"] for r in select(records, "accuracy")}
-    assert conds == {condition_name(1.4, 6.0), condition_name(0.6, 14.0), "pooled"}
+    acc = select(records, "accuracy")
+    per_condition = {condition_name(1.4, 6.0), condition_name(0.6, 14.0)}
+    assert {r["condition"] for r in acc} == {*per_condition, "pooled", "within-condition"}
+    # The within-condition summary holds every condition's episodes: their total, and
+    # (equal budgets) the mean of the conditions' accuracies; the pooled one is separate.
+    within = [r for r in acc if r["condition"] == "within-condition"]
+    assert sorted(r["way"] for r in within) == sorted(
+        r["way"] for r in acc if r["condition"] == "pooled"
+    )
+    for r in within:
+        cells = [x for x in acc if x["condition"] in per_condition and x["way"] == r["way"]]
+        assert len(cells) == 2
+        assert r["episodes"] == sum(x["episodes"] for x in cells)
+        assert r["accuracy"] == pytest.approx(np.mean([x["accuracy"] for x in cells]))
+        assert r["fold"] is None
     _check_schema(records)
 
 

@@ -61,7 +61,7 @@ def fake_records(t: float = 1.0) -> list[dict]:
                     eps = 150 if f is None else 50
                     rs.append(_acc(protocol, f, None, m, n, 1, base - 0.01 * n - pen, eps, t))
         grid = [(f, s) for f in (0.6, 1.0, 1.4) for s in (6, 10, 14) if (f, s) != (1.0, 10)]
-        conds = [condition_name(f, s) for f, s in grid] + ["pooled"]
+        conds = [condition_name(f, s) for f, s in grid] + ["pooled", "within-condition"]
         for i, c in enumerate(conds):
             for n in range(2, 13):
                 rs.append(
@@ -132,6 +132,14 @@ def test_report_has_every_section_and_side_by_side_table(tmp_path):
     assert "AFOP-ML minus AFO-MLP-ML at 12-way-1-shot: +4.0 pp (paper: +7.2 pp)" in text
     assert "Seed 7" in text and "seed: 7" in text
     assert paper_reference.CITATION in text
+    # Perturbation: the within-condition curve (index 9: 97.0 - 67.0 pp) beside the
+    # paper's figure, then the pooled one (index 8: 97.0 - 69.0 pp) without it.
+    perturbation = text[text.index("### Force/speed perturbation") :]
+    within = "drop below the closed-set curve: 30.0 pp (paper: 7.7 pp)."
+    pooled = "drop below the closed-set curve: 28.0 pp."
+    assert within in perturbation and pooled in perturbation
+    assert perturbation.index(within) < perturbation.index("#### All conditions as one test pool")
+    assert perturbation.index("#### All conditions as one test pool") < perturbation.index(pooled)
 
 
 def test_report_numbers_ignore_timing_only(tmp_path):

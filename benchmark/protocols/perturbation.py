@@ -4,10 +4,14 @@ Every method is fitted once on the nominal dataset's closed-set training half (t
 closed-set protocol's split and fit seed, reused: the paper trains "at nominal force and
 speed on the original training set"), then evaluated N-way-1-shot (N = 2..12) on the
 perturbation dataset: per force/speed combination (``condition="force=1.4N,speed=6mm/s"``)
-and on all its trials together (``condition="pooled"``). The 5-way-1-shot per-condition
-records form the force x speed heat map. ``fold`` is null. One AFOP-ML selection record
-(the nominal fit). Its tasks carry the closed-set task's fit key, so a command that runs
-both protocols fits each method once for the two.
+and on all its trials together (``condition="pooled"``: an episode's support and queries
+may come from different conditions). The engine adds the across-condition summary
+(``condition="within-condition"``: every condition's episodes together, each within one
+condition), the reading of the paper's "testing on multiple perturbed force-speed
+combinations" that the report sets beside the paper's figure. The 5-way-1-shot
+per-condition records form the force x speed heat map. ``fold`` is null. One AFOP-ML
+selection record (the nominal fit). Its tasks carry the closed-set task's fit key, so a
+command that runs both protocols fits each method once for the two.
 
 The "Force&Speed" D of this protocol (paper Fig. 6) is therefore the closed-set D: the fit
 is the closed-set fit, and its D-scan sees only nominal training trials (drawing
