@@ -25,7 +25,7 @@ from .results import from_json, to_json
 
 #: Version of what a checkpoint's records hold (AFOP-ML's selection records with their
 #: selected features, a dscan record per AFOP-ML fit, the reference curve on the
-#: closed-set fit, the within-condition summary of protocols testing several force/speed
+#: closed-set fit, the within-condition summary of protocols testing force/speed
 #: conditions), part of the key: raise it when that changes, so that a resumed run
 #: recomputes checkpoints that lack what it reads.
 LAYOUT: int = 3

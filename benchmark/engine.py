@@ -9,7 +9,7 @@ on a task's fit pool and adapts it to every cell's episodes in one batched
 ``predict_episodes`` call (:func:`benchmark.evaluate.evaluate`, which also times single
 episodes when a cell asks for it); :func:`run_protocol` does this for one protocol and
 returns typed records (:mod:`benchmark.results`): accuracy per cell, across-fold pooled
-accuracy when the tasks have folds, across-condition accuracy when they test several
+accuracy when the tasks have folds, across-condition accuracy when they test
 force/speed conditions, and what each fit exposes (AFOP-ML's selection, a
 meta-learner's validation curve).
 
@@ -676,8 +676,8 @@ def protocol_tasks(
 def protocol_records(tasks: Sequence[Task], done: TaskResults) -> list[Record]:
     """The records of a protocol's tasks: accuracy per (task, method, cell), across-fold
     pooled accuracy when the tasks have folds (:func:`pool_folds`), across-condition
-    accuracy when they test several force/speed conditions (:func:`pool_conditions`), and
-    the fits' records."""
+    accuracy when they test force/speed conditions (:func:`pool_conditions`; with one
+    condition, the same figures as its own records), and the fits' records."""
     records: list[Record] = [s.record for s in done.scored]
     if any(t.fold is not None for t in tasks):
         records += pool_folds(s for s in done.scored if s.record.fold is not None)
@@ -686,7 +686,7 @@ def protocol_records(tasks: Sequence[Task], done: TaskResults) -> list[Record]:
         for s in done.scored
         if s.record.fold is None and parse_condition(s.record.condition) is not None
     ]
-    if len({s.record.condition for s in by_condition}) > 1:
+    if by_condition:
         records += pool_conditions(by_condition)
     return records + done.fits
 

@@ -194,6 +194,32 @@ def test_perturbation_fits_on_nominal_training_half(data, spy):
     _check_schema(records)
 
 
+def test_perturbation_with_one_condition_still_has_its_summary(data):
+    # A custom perturbation set with one force/speed combination: the within-condition
+    # records the report leads with exist and repeat that condition's figures.
+    pert = make_dataset(trials_per_class=3, n_samples=200, force_n=1.4, speed_mm_s=6.0, seed=5)
+    records = protocols.run(
+        "perturbation",
+        data,
+        perturbed=pert,
+        methods=["AFOP-ML"],
+        episodes=10,
+        seed=0,
+        features=np.zeros((len(data), 386), np.float32),
+        perturbed_features=np.zeros((len(pert), 386), np.float32),
+    )
+    acc = select(records, "accuracy")
+    one = {r["way"]: r for r in acc if r["condition"] == condition_name(1.4, 6.0)}
+    within = {r["way"]: r for r in acc if r["condition"] == "within-condition"}
+    assert one and within.keys() == one.keys()
+    for way, r in within.items():
+        assert (r["accuracy"], r["ci95"], r["episodes"]) == (
+            one[way]["accuracy"],
+            one[way]["ci95"],
+            one[way]["episodes"],
+        )
+
+
 def test_unknown_method_and_missing_perturbed(data):
     with pytest.raises(ValueError, match="method must be one of"):
         protocols.run("cross-shape", data, methods=["kNN"], episodes=5, seed=0)
