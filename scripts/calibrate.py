@@ -30,6 +30,16 @@ source gives; nothing is tuned per shape, material or class.
         so the table also gives the share of each split's first 6 (cross-shape) and 12
         (cross-material) ranked features and their gap (``pvdf_share_paper_d_*``).
 
+    python3 scripts/calibrate.py whatif --set SECTION.FIELD=VALUE [--set ...]
+                                        [--trials-per-class 20] [--seeds 1]
+                                        [--closed-set EPISODES]
+        Not a calibration: one configuration with any numeric field set to any value its
+        dataclass accepts, inside or outside a cited range (``materials.texture_scale``
+        as in the sweep), to measure what the real finger would have to be for a target
+        to be met. Prints the sweep's metrics over the seeds and, with ``--closed-set N``,
+        AFOP-ML's closed-set 1-shot row over N episodes on a paper-preset dataset
+        (seed 0) of that configuration. The defaults never come from it.
+
 The sweep simulates 36 classes x ``--trials-per-class`` trials per candidate and seed
 (720 at the default of 20; about a minute each on 2 cores, and the selection adds about
 a minute); the default configuration is evaluated once.
@@ -371,6 +381,92 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return 0
 
 
+#: Configuration sections whose numeric fields ``whatif --set`` may change.
+SECTIONS = ("finger", "motion", "variability", "strain_gauge", "pvdf", "acquisition")
+
+
+def _parse_set(items: list[str] | None) -> dict[tuple[str, str], float]:
+    """``--set SECTION.FIELD=VALUE`` items as ``{(section, field): value}``: a numeric
+    field of a configuration section (or ``materials.texture_scale``), each set once."""
+    defaults = synth.SynthConfig()
+    out: dict[tuple[str, str], float] = {}
+    for item in items or ():
+        name, sep, text = item.partition("=")
+        section, _, field = name.partition(".")
+        known = (section, field) == TEXTURE_SCALE or (
+            section in SECTIONS
+            and field in {f.name for f in dataclasses.fields(getattr(defaults, section))}
+            and type(getattr(getattr(defaults, section), field)) in (int, float)
+        )
+        if not sep or not known:
+            raise SystemExit(
+                "--set must be SECTION.FIELD=VALUE with a numeric field of "
+                f"{', '.join(SECTIONS)} (or materials.texture_scale); got {item!r}"
+            )
+        try:
+            value = float(text)
+        except ValueError:
+            raise SystemExit(f"--set {name} needs a number; got {text!r}") from None
+        if (section, field) in out:
+            raise SystemExit(f"--set sets {name} twice")
+        if (section, field) != TEXTURE_SCALE and type(
+            getattr(getattr(defaults, section), field)
+        ) is int:
+            if not value.is_integer():
+                raise SystemExit(f"--set {name} needs a whole number; got {text!r}")
+            value = int(value)
+        out[section, field] = value
+    if not out:
+        raise SystemExit("--set: give at least one SECTION.FIELD=VALUE")
+    return out
+
+
+def _closed_set_row(config: synth.SynthConfig, episodes: int, where: Path) -> dict:
+    """AFOP-ML's closed-set 1-shot accuracy per N-way (%, over ``episodes`` episodes) on
+    the paper preset (seed 0) generated with ``config``."""
+    from benchmark import protocols
+    from benchmark.results import select
+    from synth.presets import preset
+
+    synth.generate(preset("paper").replace(synth=config.to_dict()), where, overwrite=True)
+    records = protocols.run(
+        "closed-set", synth.load_dataset(where), methods=["AFOP-ML"], episodes=episodes, seed=0
+    )
+    return {
+        f"closed_set_1shot_{r['way']}way": 100 * r["accuracy"]
+        for r in select(records, "accuracy")
+        if r["shot"] == 1
+    }
+
+
+def cmd_whatif(args: argparse.Namespace) -> int:
+    from synth.sensors import amplifier_noise_v
+
+    config = synth.SynthConfig()
+    for (section, field), value in _parse_set(args.set).items():
+        try:
+            config = _with(config, section, field, value)
+        except ValueError as exc:
+            raise SystemExit(f"--set {section}.{field}={value:g}: {exc}") from None
+    noise = amplifier_noise_v(config)
+    print(
+        "what-if configuration: "
+        + ", ".join(args.set)
+        + f" (PVDF amplifier noise {1e3 * noise[0]:.3g} mV RMS at the DAQ)",
+        flush=True,
+    )
+    with tempfile.TemporaryDirectory() as tmp:
+        where = Path(tmp) / "grid"
+        metrics = _over_seeds(
+            [_evaluate(config, args.trials_per_class, where, seed) for seed in range(args.seeds)]
+        )
+        print(", ".join(f"{k} {_fmt(k, v)}" for k, v in metrics.items()), flush=True)
+        if args.closed_set:
+            row = _closed_set_row(config, args.closed_set, Path(tmp) / "paper")
+            print(", ".join(f"{k} {v:.2f}" for k, v in row.items()), flush=True)
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -395,11 +491,30 @@ def main(argv: list[str] | None = None) -> int:
     )
     p.add_argument("--out", help="write calibration.md and calibration.json here")
     p.set_defaults(func=cmd_sweep)
+    p = sub.add_parser("whatif", help="one configuration, any values (not a calibration)")
+    p.add_argument(
+        "--set",
+        action="append",
+        metavar="SECTION.FIELD=VALUE",
+        help="set a numeric configuration field (repeatable)",
+    )
+    p.add_argument("--trials-per-class", type=int, default=20)
+    p.add_argument("--seeds", type=int, default=1, help="dataset seeds (0..N-1; default 1)")
+    p.add_argument(
+        "--closed-set",
+        type=int,
+        default=0,
+        metavar="EPISODES",
+        help="also AFOP-ML's closed-set 1-shot row over this many episodes",
+    )
+    p.set_defaults(func=cmd_whatif)
     args = parser.parse_args(argv)
     if getattr(args, "trials_per_class", 2) < 2:
         parser.error("--trials-per-class must be at least 2 (leave-one-out needs a neighbour)")
     if getattr(args, "seeds", 1) < 1:
         parser.error("--seeds must be at least 1")
+    if getattr(args, "closed_set", 0) < 0:
+        parser.error("--closed-set must be 0 (off) or a number of episodes")
     return args.func(args)
 
 

@@ -92,6 +92,66 @@ def test_a_held_parameter_is_set_in_every_candidate_and_not_swept(tmp_path, monk
     ]
 
 
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        ([], "--set: give at least one SECTION.FIELD=VALUE"),
+        (["--set", "pvdf.no_such_field=1"], "--set must be SECTION.FIELD=VALUE"),
+        (["--set", "materials.resin=1"], "--set must be SECTION.FIELD=VALUE"),
+        (["--set", "pvdf.post_gain"], "--set must be SECTION.FIELD=VALUE"),
+        (["--set", "finger.skin_solref=1"], "--set must be SECTION.FIELD=VALUE"),
+        (["--set", "pvdf.post_gain=loud"], "--set pvdf.post_gain needs a number"),
+        (["--set", "acquisition.adc_bits=12.5"], "acquisition.adc_bits needs a whole number"),
+        (["--set", "pvdf.post_gain=2", "--set", "pvdf.post_gain=3"], "sets pvdf.post_gain twice"),
+        (["--set", "pvdf.post_gain=-1"], "--set pvdf.post_gain=-1: PVDF.post_gain must be > 0"),
+    ],
+)
+def test_whatif_refuses_a_bad_setting_in_one_line(argv, message):
+    calibrate = _calibrate_module()
+    with pytest.raises(SystemExit, match=re.escape(message)):
+        calibrate.main(["whatif", *argv])
+
+
+def test_whatif_evaluates_the_set_configuration_over_every_seed(monkeypatch, capsys):
+    calibrate = _calibrate_module()
+    seen, closed = [], []
+    row = {
+        "class_all": 0.5,
+        "pvdf_share_cross_shape": 0.2,
+        "pvdf_share_cross_material": 0.5,
+        "pvdf_share_paper_d_cross_shape": 0.2,
+        "pvdf_share_paper_d_cross_material": 0.5,
+    }
+
+    def evaluate(config, trials_per_class, where, seed):
+        seen.append((config, trials_per_class, seed))
+        return row
+
+    def closed_set(config, episodes, where):
+        closed.append((config, episodes))
+        return {"closed_set_1shot_5way": 90.0}
+
+    monkeypatch.setattr(calibrate, "_evaluate", evaluate)
+    monkeypatch.setattr(calibrate, "_closed_set_row", closed_set)
+    argv = ["whatif", "--set", "pvdf.amplifier_noise_v_per_sqrt_hz=5.6e-4"]
+    argv += ["--set", "acquisition.adc_bits=14", "--set", "materials.texture_scale=0.5"]
+    assert calibrate.main([*argv, "--seeds", "2", "--trials-per-class", "4"]) == 0
+    assert [(t, s) for _, t, s in seen] == [(4, 0), (4, 1)]
+    config = seen[0][0]
+    assert config.pvdf.amplifier_noise_v_per_sqrt_hz == 5.6e-4
+    assert config.acquisition.adc_bits == 14 and isinstance(config.acquisition.adc_bits, int)
+    resin = synth.SynthConfig().materials["resin"].texture
+    assert config.materials["resin"].texture.roughness_rms_m == resin.roughness_rms_m * 0.5
+    assert not closed  # only with --closed-set
+    out = capsys.readouterr().out
+    assert "PVDF amplifier noise 30.2 mV RMS at the DAQ" in out
+    assert "pvdf_share_gap -0.300" in out
+    assert calibrate.main([*argv, "--closed-set", "50"]) == 0
+    assert [e for _, e in closed] == [50]
+    assert closed[0][0] == config
+    assert "closed_set_1shot_5way 90.00" in capsys.readouterr().out
+
+
 def test_a_candidate_over_seeds_reports_means_the_share_gap_and_their_spread():
     calibrate = _calibrate_module()
     runs = [
