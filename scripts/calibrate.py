@@ -50,6 +50,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 import sys
 import tempfile
 import time
@@ -406,7 +407,9 @@ def _parse_set(items: list[str] | None) -> dict[tuple[str, str], float]:
         try:
             value = float(text)
         except ValueError:
-            raise SystemExit(f"--set {name} needs a number; got {text!r}") from None
+            value = math.nan
+        if not math.isfinite(value):
+            raise SystemExit(f"--set {name} needs a finite number; got {text!r}")
         if (section, field) in out:
             raise SystemExit(f"--set sets {name} twice")
         if (section, field) != TEXTURE_SCALE and type(
