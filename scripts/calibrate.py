@@ -262,6 +262,12 @@ SPREAD_KEYS = (
 )
 
 
+def _measured(config: synth.SynthConfig, trials_per_class: int, seeds: int, where: Path) -> dict:
+    """:func:`_evaluate` of ``config`` on dataset seeds 0..``seeds``-1, summarised by
+    :func:`_over_seeds`."""
+    return _over_seeds([_evaluate(config, trials_per_class, where, seed) for seed in range(seeds)])
+
+
 def _over_seeds(per_seed: list[dict]) -> dict:
     """One candidate's metrics over its dataset seeds: every metric's mean, the share gaps
     (cross-shape minus cross-material PVDF share, of the selected features and of the
@@ -342,12 +348,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                 config = _with(base, section, field, value)
                 key = json.dumps(config.to_dict(), sort_keys=True)
                 if key not in done:
-                    done[key] = _over_seeds(
-                        [
-                            _evaluate(config, args.trials_per_class, where, seed)
-                            for seed in range(args.seeds)
-                        ]
-                    )
+                    done[key] = _measured(config, args.trials_per_class, args.seeds, where)
                 metrics = done[key]
                 row = {
                     "parameter": f"{section}.{field}",
@@ -460,9 +461,7 @@ def cmd_whatif(args: argparse.Namespace) -> int:
     )
     with tempfile.TemporaryDirectory() as tmp:
         where = Path(tmp) / "grid"
-        metrics = _over_seeds(
-            [_evaluate(config, args.trials_per_class, where, seed) for seed in range(args.seeds)]
-        )
+        metrics = _measured(config, args.trials_per_class, args.seeds, where)
         print(", ".join(f"{k} {_fmt(k, v)}" for k, v in metrics.items()), flush=True)
         if args.closed_set:
             row = _closed_set_row(config, args.closed_set, Path(tmp) / "paper")

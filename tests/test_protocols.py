@@ -154,20 +154,25 @@ def test_cross_material_trains_on_one_material(data, spy):
     assert {r["fold"] for r in select(records, "accuracy")} == {*MATERIAL_NAMES, None}
 
 
-def test_perturbation_fits_on_nominal_training_half(data, spy):
-    pert = make_dataset(trials_per_class=3, n_samples=200, force_n=1.4, speed_mm_s=6.0, seed=5)
-    pert2 = make_dataset(trials_per_class=3, n_samples=200, force_n=0.6, speed_mm_s=14.0, seed=6)
-    both = _concat(pert, pert2)
-    records = protocols.run(
+def _run_perturbation(data, perturbed):
+    """The perturbation protocol's records for AFOP-ML on all-zero feature pools."""
+    return protocols.run(
         "perturbation",
         data,
-        perturbed=both,
+        perturbed=perturbed,
         methods=["AFOP-ML"],
         episodes=10,
         seed=0,
         features=np.zeros((len(data), 386), np.float32),
-        perturbed_features=np.zeros((len(both), 386), np.float32),
+        perturbed_features=np.zeros((len(perturbed), 386), np.float32),
     )
+
+
+def test_perturbation_fits_on_nominal_training_half(data, spy):
+    pert = make_dataset(trials_per_class=3, n_samples=200, force_n=1.4, speed_mm_s=6.0, seed=5)
+    pert2 = make_dataset(trials_per_class=3, n_samples=200, force_n=0.6, speed_mm_s=14.0, seed=6)
+    both = _concat(pert, pert2)
+    records = _run_perturbation(data, both)
     fits = [e for e in spy.log if e["op"] == "fit"]
     assert len(fits) == 1  # one fit, tested on every condition
     # ... and it is the closed-set fit (same seed), so its D is the closed-set D.
@@ -198,16 +203,7 @@ def test_perturbation_with_one_condition_still_has_its_summary(data):
     # A custom perturbation set with one force/speed combination: the within-condition
     # records the report leads with exist and repeat that condition's figures.
     pert = make_dataset(trials_per_class=3, n_samples=200, force_n=1.4, speed_mm_s=6.0, seed=5)
-    records = protocols.run(
-        "perturbation",
-        data,
-        perturbed=pert,
-        methods=["AFOP-ML"],
-        episodes=10,
-        seed=0,
-        features=np.zeros((len(data), 386), np.float32),
-        perturbed_features=np.zeros((len(pert), 386), np.float32),
-    )
+    records = _run_perturbation(data, pert)
     acc = select(records, "accuracy")
     one = {r["way"]: r for r in acc if r["condition"] == condition_name(1.4, 6.0)}
     within = {r["way"]: r for r in acc if r["condition"] == "within-condition"}
