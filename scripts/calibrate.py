@@ -444,7 +444,7 @@ def _closed_set_row(config: synth.SynthConfig, episodes: int, where: Path) -> di
 
 
 def cmd_whatif(args: argparse.Namespace) -> int:
-    from synth.sensors import amplifier_noise_v
+    from synth.sensors import SaturationError, amplifier_noise_v
 
     config = synth.SynthConfig()
     for (section, field), value in _parse_set(args.set).items():
@@ -460,12 +460,17 @@ def cmd_whatif(args: argparse.Namespace) -> int:
         flush=True,
     )
     with tempfile.TemporaryDirectory() as tmp:
-        where = Path(tmp) / "grid"
-        metrics = _measured(config, args.trials_per_class, args.seeds, where)
-        print(", ".join(f"{k} {_fmt(k, v)}" for k, v in metrics.items()), flush=True)
-        if args.closed_set:
-            row = _closed_set_row(config, args.closed_set, Path(tmp) / "paper")
-            print(", ".join(f"{k} {v:.2f}" for k, v in row.items()), flush=True)
+        try:
+            where = Path(tmp) / "grid"
+            metrics = _measured(config, args.trials_per_class, args.seeds, where)
+            print(", ".join(f"{k} {_fmt(k, v)}" for k, v in metrics.items()), flush=True)
+            if args.closed_set:
+                row = _closed_set_row(config, args.closed_set, Path(tmp) / "paper")
+                print(", ".join(f"{k} {v:.2f}" for k, v in row.items()), flush=True)
+        except SaturationError as exc:
+            # A setting that raises a channel's signal can drive it beyond the ADC's range;
+            # the DAQ cannot record that configuration as set.
+            raise SystemExit(f"--set {' '.join(args.set)}: {exc}") from None
     return 0
 
 

@@ -304,9 +304,11 @@ class PVDF:
     """PVDF films bonded under the skin at the pad's front and rear (channels 1-2).
 
     The skin over a film is pushed in by the contact (the indentation spreads beyond the
-    contact patch as on an elastic half-space), bending the film; a thin stiff film on
-    soft silicone bends about its own mid-plane, so its in-plane strain is
-    ``4 (t / 2) w / L^2`` for a deflection ``w`` over its length ``L``. The charge is
+    contact patch as on an elastic half-space), bending the film to a curvature
+    ``4 w / L^2`` for a deflection ``w`` over its length ``L``. The electrodes collect the
+    film's charge averaged through its thickness, so bending yields charge only in
+    proportion to the distance ``e`` between the film's mid-plane and the neutral axis of
+    what bends with it: the mean in-plane strain is ``4 e w / L^2``. The charge is
     ``d31 * E * strain * area`` (stress along the film's stretch axis); a charge
     amplifier (feedback ``C_f`` parallel ``R_f``) turns it into ``-q / C_f`` above its
     high-pass corner ``1 / (2 pi R_f C_f)``. Material constants: Measurement
@@ -321,6 +323,15 @@ class PVDF:
     relative_permittivity: float = 12.0
     #: Film thickness (9, 28, 52 or 110 um stock).
     thickness_m: float = 28e-6
+    #: Distance from the film's mid-plane to the bending neutral axis. A homogeneous film
+    #: bending alone has 0: its two halves stretch and shorten alike and their charges
+    #: cancel. A film on a carrier puts the axis where the layers' first moments of
+    #: ``E t`` balance; the axis lies at the film's bonded face, ``e = t / 2 = 14 um``,
+    #: when the carrier's ``E t^2`` equals the film's, as for the 23 um polyester stock
+    #: (4-5 GPa) under 28 um PVDF. The manual's laminated elements (125 um polyester)
+    #: give about 67 um. The finger's description does not give the films' carrier;
+    #: the default takes the thin polyester one.
+    neutral_axis_offset_m: float = 14e-6
     #: Electrode length (along the sliding direction) and width: a strip that fits on the
     #: pad's front / rear flank.
     length_m: float = 5.0e-3
@@ -352,7 +363,10 @@ class PVDF:
             "feedback_resistance_ohm",
             "post_gain",
         )
-        params.non_negative(self, "offset_m", "amplifier_noise_v_per_sqrt_hz")
+        params.non_negative(
+            self, "offset_m", "amplifier_noise_v_per_sqrt_hz", "neutral_axis_offset_m"
+        )
+        params.below(self, "neutral_axis_offset_m", 1e-3, "a film's carrier is sub-millimetre")
 
     @property
     def area_m2(self) -> float:

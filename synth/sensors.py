@@ -74,14 +74,16 @@ def film_strains(mech: Mechanics, finger: Finger, pvdf: PVDF) -> np.ndarray:
 
     The skin over each film is pushed in by ``w``, the elastic surface deflection around
     the contact (:func:`synth.contact.surface_deflection_m`) at the film's distance from the
-    contact centroid; the thin, stiff film bends about its own mid-plane over its length
-    ``L``, so its surface strain is ``4 (t / 2) w / L^2``.
+    contact centroid; the film bends over its length ``L`` to a curvature ``4 w / L^2``,
+    and its mean strain through the thickness, which its charge follows, is that
+    curvature times the distance ``e`` from its mid-plane to the neutral axis
+    (:attr:`synth.config.PVDF.neutral_axis_offset_m`): ``4 e w / L^2``.
     """
     out = []
     for sign in (1.0, -1.0):  # front film ahead of the pad's axis, rear film behind it
         distance = sign * pvdf.offset_m - mech.contact_ahead_m
         w = contact.surface_deflection_m(distance, mech.indentation_m, finger.pad_radius_m)
-        out.append(2.0 * pvdf.thickness_m * w / pvdf.length_m**2)
+        out.append(4.0 * pvdf.neutral_axis_offset_m * w / pvdf.length_m**2)
     return np.stack(out, axis=1)
 
 

@@ -113,6 +113,13 @@ def test_whatif_refuses_a_bad_setting_in_one_line(argv, message):
         calibrate.main(["whatif", *argv])
 
 
+def test_whatif_refuses_a_configuration_the_adc_cannot_record_in_one_line():
+    calibrate = _calibrate_module()
+    argv = ["whatif", "--set", "pvdf.post_gain=500", "--trials-per-class", "2"]
+    with pytest.raises(SystemExit, match=r"^--set pvdf.post_gain=500: ADC saturated .* channel 0"):
+        calibrate.main(argv)
+
+
 def test_whatif_evaluates_the_set_configuration_over_every_seed(monkeypatch, capsys):
     calibrate = _calibrate_module()
     seen, closed = [], []

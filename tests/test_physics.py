@@ -353,6 +353,50 @@ def test_pvdf_film_capacitance_comes_from_its_geometry():
     assert per_cm2 == pytest.approx(380e-12, rel=0.05)
 
 
+def _bilayer_offset_m(film_t, film_e, carrier_t, carrier_e):
+    """Distance from a film's mid-plane to the neutral axis of the film on its carrier."""
+    carrier, film = carrier_e * carrier_t, film_e * film_t  # in-plane stiffness, E t
+    axis = (carrier * carrier_t / 2 + film * (carrier_t + film_t / 2)) / (carrier + film)
+    return carrier_t + film_t / 2 - axis
+
+
+def test_the_films_neutral_axis_offset_is_its_carriers():
+    """The default offset is 28 um PVDF on 23 um polyester; a 125 um laminate gives ~67 um."""
+    pv = NOMINAL.pvdf
+    for polyester_pa in (4.0e9, 4.5e9, 5.0e9):
+        thin = _bilayer_offset_m(pv.thickness_m, pv.youngs_modulus_pa, 23e-6, polyester_pa)
+        assert thin == pytest.approx(pv.neutral_axis_offset_m, rel=0.08), polyester_pa
+    laminate = _bilayer_offset_m(pv.thickness_m, pv.youngs_modulus_pa, 125e-6, 4.5e9)
+    assert laminate == pytest.approx(67e-6, rel=0.03)
+    assert _bilayer_offset_m(pv.thickness_m, 3e9, pv.thickness_m, 3e9) == pytest.approx(
+        pv.thickness_m / 2
+    )
+
+
+def test_a_film_bending_about_its_own_mid_plane_gives_no_charge():
+    """The films' signal is in proportion to the neutral axis's offset from their
+    mid-plane: at 0 the PVDF channels carry only the amplifier's and the DAQ's noise,
+    the same whatever the surface; at twice the offset, twice the signal above it."""
+
+    def pvdf(offset_m, texture=None):
+        pv = dataclasses.replace(FLAT.pvdf, neutral_axis_offset_m=offset_m)
+        config = dataclasses.replace(FLAT, pvdf=pv)
+        if texture is not None:
+            config = _with_material(config, "wood", texture=texture)
+        return _flat(config=config)
+
+    wood = FLAT.materials["wood"].texture
+    rough = dataclasses.replace(wood, roughness_rms_m=3 * wood.roughness_rms_m)
+    np.testing.assert_array_equal(pvdf(0.0).signals[PVDF], pvdf(0.0, rough).signals[PVDF])
+    assert not np.array_equal(pvdf(0.0).signals[SG], pvdf(0.0, rough).signals[SG])
+
+    noise = _pvdf_rms(pvdf(0.0))
+    default = FLAT.pvdf.neutral_axis_offset_m
+    once, twice = (np.sqrt(_pvdf_rms(pvdf(k * default)) ** 2 - noise**2) for k in (1, 2))
+    assert once > 2 * noise
+    assert twice == pytest.approx(2 * once, rel=0.05)
+
+
 def test_same_seed_is_bit_identical_whatever_the_batch():
     """Determinism: same seed, same bits (alone or in a batch, any thread count)."""
     spec = TrialSpec("pentagram", "aluminum", force_n=1.2, speed_mm_s=9.0, seed=11)
