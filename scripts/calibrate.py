@@ -6,10 +6,11 @@ source gives; nothing is tuned per shape, material or class.
     python3 scripts/calibrate.py skin
         Fit MuJoCo's soft-contact parameters of the skin so that its indentation follows
         Hertz's law for the configured skin modulus; prints Finger.skin_solref/solimp.
-    python3 scripts/calibrate.py gain
-        The PVDF post-amplifier gain: the largest round gain that keeps the worst edge
-        transient of the perturbation grid (every shape x material at 1.4 N, 14 mm/s)
-        below 70 % of the DAQ's range.
+    python3 scripts/calibrate.py gain [--set SECTION.FIELD=VALUE ...]
+        The PVDF post-amplifier gain: the largest round gain (1-2-5 series) that keeps
+        the worst edge transient of the perturbation grid (every shape x material at
+        1.4 N, 14 mm/s) below 70 % of the DAQ's range; with ``--set``, for the
+        configuration whatif would measure.
     python3 scripts/calibrate.py sweep [--trials-per-class 20] [--seeds 1]
                                        [--only SECTION.FIELD] [--base SECTION.FIELD=VALUE]
                                        [--out DIR]
@@ -170,10 +171,30 @@ def cmd_skin(_args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_gain(_args: argparse.Namespace) -> int:
+#: Round post-amplifier gains (1-2-5 series) the gain command chooses from.
+ROUND_GAINS: tuple[float, ...] = (0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0)
+
+
+def _configured(items: list[str] | None) -> synth.SynthConfig:
+    """The default configuration with the ``--set`` items applied."""
     config = synth.SynthConfig()
+    for (section, field), value in _parse_set(items).items():
+        try:
+            config = _with(config, section, field, value)
+        except ValueError as exc:
+            raise SystemExit(f"--set {section}.{field}={value:g}: {exc}") from None
+    return config
+
+
+def cmd_gain(args: argparse.Namespace) -> int:
+    from synth.sensors import SaturationError
+
+    config = _configured(args.set) if args.set else synth.SynthConfig()
+    # The worst transient per unit post-gain, read through a DAQ of a wide range.
     probe = dataclasses.replace(
-        config, acquisition=dataclasses.replace(config.acquisition, range_v=1e3, adc_bits=24)
+        config,
+        pvdf=dataclasses.replace(config.pvdf, post_gain=1.0),
+        acquisition=dataclasses.replace(config.acquisition, range_v=1e3, adc_bits=24),
     )
     specs = [
         synth.TrialSpec(s, m, force_n=1.4, speed_mm_s=14.0, seed=k)
@@ -181,11 +202,22 @@ def cmd_gain(_args: argparse.Namespace) -> int:
         for m in synth.MATERIAL_NAMES
         for k in range(2)
     ]
-    trials = synth.simulate_batch(specs, config=probe)
-    peak = max(float(np.abs(t.signals[:2]).max()) for t in trials)
-    per_gain = peak / config.pvdf.post_gain
+    try:
+        trials = synth.simulate_batch(specs, config=probe)
+    except SaturationError as exc:
+        raise SystemExit(
+            f"the PVDF transients exceed +-{probe.acquisition.range_v:g} V per unit "
+            f"post-gain, so no gain from {ROUND_GAINS[0]:g} fits the DAQ ({exc})"
+        ) from None
+    per_gain = max(float(np.abs(t.signals[:2]).max()) for t in trials)
     budget = 0.7 * config.acquisition.range_v
-    best = max(g for g in (1.0, 2.0, 5.0, 10.0, 20.0, 50.0) if g * per_gain <= budget)
+    fits = [g for g in ROUND_GAINS if g * per_gain <= budget]
+    if not fits:
+        raise SystemExit(
+            f"no post-gain from {ROUND_GAINS[0]:g} up keeps the worst PVDF transient "
+            f"({per_gain:.1f} V per unit gain) below {budget:g} V"
+        )
+    best = max(fits)
     print(f"worst PVDF transient at 1.4 N, 14 mm/s: {per_gain:.2f} V per unit post-gain")
     print(
         f"post_gain = {best:g} (peak {best * per_gain:.1f} V of +-{config.acquisition.range_v} V)"
@@ -446,12 +478,7 @@ def _closed_set_row(config: synth.SynthConfig, episodes: int, where: Path) -> di
 def cmd_whatif(args: argparse.Namespace) -> int:
     from synth.sensors import SaturationError, amplifier_noise_v
 
-    config = synth.SynthConfig()
-    for (section, field), value in _parse_set(args.set).items():
-        try:
-            config = _with(config, section, field, value)
-        except ValueError as exc:
-            raise SystemExit(f"--set {section}.{field}={value:g}: {exc}") from None
+    config = _configured(args.set)
     noise = amplifier_noise_v(config)
     print(
         "what-if configuration: "
@@ -478,7 +505,14 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
     sub.add_parser("skin", help="fit the skin contact to Hertz").set_defaults(func=cmd_skin)
-    sub.add_parser("gain", help="the PVDF post-amplifier gain").set_defaults(func=cmd_gain)
+    p = sub.add_parser("gain", help="the PVDF post-amplifier gain")
+    p.add_argument(
+        "--set",
+        action="append",
+        metavar="SECTION.FIELD=VALUE",
+        help="size the gain for this configuration, as whatif sets it (repeatable)",
+    )
+    p.set_defaults(func=cmd_gain)
     p = sub.add_parser("sweep", help="the global parameters over their cited ranges")
     p.add_argument("--trials-per-class", type=int, default=20)
     p.add_argument(

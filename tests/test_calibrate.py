@@ -113,6 +113,20 @@ def test_whatif_refuses_a_bad_setting_in_one_line(argv, message):
         calibrate.main(["whatif", *argv])
 
 
+def test_gain_sizes_the_default_post_gain_and_any_configurations(capsys):
+    """The default post-gain is the one the script sizes; a film carrier that quadruples
+    the charge (the 125 um laminate) gets a quarter of it, rounded in the 1-2-5 series."""
+    calibrate = _calibrate_module()
+    assert calibrate.main(["gain"]) == 0
+    default = synth.SynthConfig().pvdf.post_gain
+    assert f"post_gain = {default:g} (" in capsys.readouterr().out
+    assert calibrate.main(["gain", "--set", "pvdf.neutral_axis_offset_m=6.7e-5"]) == 0
+    assert "post_gain = 0.5 (" in capsys.readouterr().out
+    argv = ["gain", "--set", "pvdf.neutral_axis_offset_m=9e-4", "--set", "pvdf.d31_c_per_n=1e-9"]
+    with pytest.raises(SystemExit, match=r"^the PVDF transients exceed \+-1000 V per unit"):
+        calibrate.main(argv)
+
+
 def test_whatif_refuses_a_configuration_the_adc_cannot_record_in_one_line():
     calibrate = _calibrate_module()
     argv = ["whatif", "--set", "pvdf.post_gain=500", "--trials-per-class", "2"]
