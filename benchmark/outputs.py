@@ -33,7 +33,8 @@ def _inside(path: Path, parent: Path) -> bool:
     return path == parent or parent in path.parents
 
 
-def _dataset_containing(path: Path) -> Path | None:
+def dataset_containing(path: Path) -> Path | None:
+    """The dataset (Zarr store) that is ``path`` or holds it, if any."""
     for p in (path, *path.parents):
         if (p / "zarr.json").is_file():
             return p
@@ -70,7 +71,7 @@ class OutputDir:
     def _check(self) -> None:
         out = self.out
         atomic.check_out_dir(out)
-        inside = _dataset_containing(Path(os.path.abspath(out)))
+        inside = dataset_containing(Path(os.path.abspath(out)))
         if inside is not None:
             raise ValueError(f"--out {out} lies inside the dataset {inside}; choose another DIR")
         root = Path(os.path.abspath(out))

@@ -329,3 +329,9 @@ def test_cli_refuses_an_incomplete_store_naming_the_fix(tmp_path, capsys):
     assert "incomplete store" in printed and "8 trials" in printed
     assert main(["diagnose", str(tmp_path / "absent")]) == 2
     assert "does not exist" in capsys.readouterr().err
+    for out in (data, data / "report"):
+        assert main(["diagnose", str(data), "--allow-incomplete", "--out", str(out)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.endswith(f"--out {out} lies inside the dataset {data}; choose another DIR")
+        assert len(err.splitlines()) == 1
+    assert not (data / "report").exists() and not (data / MARKDOWN_NAME).exists()
