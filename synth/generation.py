@@ -348,6 +348,7 @@ def prepare(
     resume = resume or repair
     config = _resolve_config(config)
     atomic.check_out_dir(out, advice="choose a directory path for the dataset")
+    store.check_not_inside_a_store(out)
     pending = store.pending_path(out)
     atomic.recover(out, complete=store.is_complete(pending))
     occupied = out.exists() and any(out.iterdir())

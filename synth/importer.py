@@ -813,6 +813,7 @@ def import_recordings(
     _check_options(sample_rate_hz, window_start_s, chunk_trials)
     out = Path(out)
     atomic.check_out_dir(out, advice="choose a directory path for the dataset")
+    store.check_not_inside_a_store(out)
     for what, path in (("RECORDINGS", recordings), ("--labels", labels)):
         if out.exists() and _inside(path, out):
             raise ValueError(

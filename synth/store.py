@@ -215,6 +215,23 @@ def is_store(path: Path) -> bool:
     return (Path(path) / "zarr.json").is_file()
 
 
+def enclosing_store(path: str | Path) -> Path | None:
+    """The store that holds ``path`` below its root (one of its arrays, or anything
+    further down), if any: a dataset written there would replace part of that store."""
+    for parent in Path(os.path.abspath(path)).parents:
+        if is_store(parent):
+            return parent
+    return None
+
+
+def check_not_inside_a_store(out: str | Path) -> None:
+    """A one-line ``ValueError`` naming ``--out`` if ``out`` lies inside another dataset
+    store, where writing (or replacing with ``--overwrite``) would damage that store."""
+    inside = enclosing_store(out)
+    if inside is not None:
+        raise ValueError(f"--out {out} lies inside the dataset {inside}; choose a path outside it")
+
+
 def is_complete(path: str | Path) -> bool:
     """``path`` is a readable store whose every chunk is finished."""
     try:
@@ -638,6 +655,8 @@ class Store:
         return store
 
     def _open_arrays(self) -> None:
+        import zarr
+
         n, c, k = self.n_trials, self.chunk_trials, self.n_chunks
         expected = {
             "signals": ((n, len(CHANNELS), N_SAMPLES), (c, len(CHANNELS), N_SAMPLES), "float32"),
@@ -660,6 +679,11 @@ class Store:
                 raise DatasetError(
                     f"{meta_file} is damaged ({type(exc).__name__}: {exc})", regenerate
                 ) from None
+            if not isinstance(arr, zarr.Array):
+                raise DatasetError(
+                    f"{meta_file} describes a group, not the dataset's {name} array",
+                    regenerate,
+                )
             if (arr.shape, arr.chunks, str(arr.dtype)) != (shape, chunks, dtype):
                 raise DatasetError(
                     f"{meta_file} describes {arr.dtype} {arr.shape} in chunks {arr.chunks}, "

@@ -223,7 +223,12 @@ def test_user_errors_leave_disk_untouched(tmp_path):
         run(tiny(seed=1), out, resume=True)
     with pytest.raises(ValueError, match="exclude each other"):
         run(tiny(), out, resume=True, overwrite=True)
+    # a dataset is never written into another one: --overwrite would replace its arrays
+    for inner in (out / "signals", out / "reports" / "ds"):
+        with pytest.raises(ValueError, match=rf"^--out {inner} lies inside the dataset {out};"):
+            run(tiny(), inner, overwrite=True)
     assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+    assert not (out / "reports").exists()
     # --overwrite never deletes something that is not a dataset
     folder = tmp_path / "papers"
     folder.mkdir()

@@ -286,10 +286,17 @@ def test_edited_configuration_is_caught(complete):
     np.testing.assert_array_equal(data.seed, plan(tiny(seed=7)).seed)
 
 
-@pytest.mark.parametrize("part", ["zarr.json", "signals/zarr.json"])
-def test_damaged_metadata_is_one_line_naming_the_file(complete, capsys, part):
+GROUP_META = '{"zarr_format": 3, "node_type": "group", "attributes": {}}'
+
+
+@pytest.mark.parametrize(
+    ("part", "text"),
+    [("zarr.json", ""), ("signals/zarr.json", ""), ("signals/zarr.json", GROUP_META)],
+    ids=["store-empty", "array-empty", "array-made-a-group"],
+)
+def test_damaged_metadata_is_one_line_naming_the_file(complete, capsys, part, text):
     out, _ = complete
-    (out / part).write_text("")
+    (out / part).write_text(text)
     bench = ["benchmark", "closed-set", "--data", out, "--out", out.parent / "b"]
     for args in (["inspect", out], bench, ["generate", "--resume", "--out", out]):
         code, _, err = cli(args, capsys)

@@ -515,6 +515,14 @@ def test_refuses_a_foreign_out_and_one_holding_the_recordings(tmp_path):
     assert (foreign / "notes.txt").read_text() == "keep me"
     with pytest.raises(ValueError, match="replacing it would delete them"):
         import_recordings(recs, tmp_path, sample_rate_hz=1000, overwrite=True, progress=False)
+    data = tmp_path / "data"
+    import_recordings(recs, data, sample_rate_hz=1000, progress=False)
+    before = load_dataset(data).signals
+    with pytest.raises(ValueError, match=rf"^--out {data / 'signals'} lies inside the dataset"):
+        import_recordings(
+            recs, data / "signals", sample_rate_hz=1000, overwrite=True, progress=False
+        )
+    assert np.array_equal(load_dataset(data).signals, before)
 
 
 def test_unlisted_recordings_are_named_in_a_warning(tmp_path):
