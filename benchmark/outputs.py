@@ -34,11 +34,10 @@ def _inside(path: Path, parent: Path) -> bool:
 
 
 def dataset_containing(path: Path) -> Path | None:
-    """The dataset (Zarr store) that is ``path`` or holds it, if any."""
-    for p in (path, *path.parents):
-        if (p / "zarr.json").is_file():
-            return p
-    return None
+    """The dataset (Zarr store) that is ``path`` or holds it, if any (the outermost: an
+    array's directory inside a store has its own ``zarr.json``)."""
+    stores = [p for p in (path, *path.parents) if (p / "zarr.json").is_file()]
+    return stores[-1] if stores else None
 
 
 class OutputDir:

@@ -23,6 +23,7 @@ def example_rows(label: np.ndarray, condition: np.ndarray, finished: np.ndarray)
 def plot_examples(path: str | Path, out: str | Path) -> Path:
     """Draw one trial per class of the store at ``path`` (rows: shapes, columns:
     materials), as :func:`plot_example_grid`. Returns ``out``."""
+    store.check_not_inside_a_store(out)
     st = store.Store.open(path)
     meta = st.meta
     done, problems = st.status()

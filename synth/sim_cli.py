@@ -37,8 +37,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _plot_trial(args: argparse.Namespace) -> int:
     from .simulator import simulate
+    from .store import check_not_inside_a_store
     from .trial_plot import plot_trial
 
+    check_not_inside_a_store(args.out)  # before simulating
     trial = simulate(
         args.shape, args.material, force_n=args.force, speed_mm_s=args.speed, seed=args.seed
     )

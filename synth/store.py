@@ -217,11 +217,10 @@ def is_store(path: Path) -> bool:
 
 def enclosing_store(path: str | Path) -> Path | None:
     """The store that holds ``path`` below its root (one of its arrays, or anything
-    further down), if any: a dataset written there would replace part of that store."""
-    for parent in Path(os.path.abspath(path)).parents:
-        if is_store(parent):
-            return parent
-    return None
+    further down), if any: a dataset written there would replace part of that store. An
+    array's directory has its own ``zarr.json``, so the outermost one is the store."""
+    stores = [p for p in Path(os.path.abspath(path)).parents if is_store(p)]
+    return stores[-1] if stores else None
 
 
 def check_not_inside_a_store(out: str | Path) -> None:

@@ -279,6 +279,11 @@ def test_export_npz_and_csv(tmp_path):
     np.testing.assert_array_equal(np.array(row[8:], dtype=np.float32), data.signals[5, 2])
     with pytest.raises(ValueError, match="format must be one of npz, csv"):
         export(out, "hdf5")
+    meta = (out / "zarr.json").read_bytes()
+    for inside in (out / "zarr.json", out / "x.csv"):  # never among the store's files
+        with pytest.raises(ValueError, match=rf"^--out {inside} lies inside the dataset {out};"):
+            export(out, "csv", inside, overwrite=True)
+    assert (out / "zarr.json").read_bytes() == meta and not (out / "x.csv").exists()
 
 
 def test_inspect_and_plot(tmp_path):
@@ -292,3 +297,8 @@ def test_inspect_and_plot(tmp_path):
 
     png = plot_examples(out, tmp_path / "ex.png")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
+    chunk = next(p for p in (out / "signals").rglob("*") if p.is_file() and p.name != "zarr.json")
+    before = chunk.read_bytes()
+    with pytest.raises(ValueError, match=rf"^--out {chunk} lies inside the dataset {out};"):
+        plot_examples(out, chunk)
+    assert chunk.read_bytes() == before

@@ -21,6 +21,14 @@ def test_plot_trial_rejects_bad_arguments(tmp_path, capsys):
     assert "speed_mm_s" in capsys.readouterr().err
     bad_suffix = ["plot-trial", "--shape", "moon", "--material", "wood", "--out", out + ".jpg"]
     assert main(bad_suffix) == 2
+    capsys.readouterr()
+    store = tmp_path / "data"
+    store.mkdir()
+    (store / "zarr.json").write_text("{}")  # any dataset store's root
+    inside = ["plot-trial", "--shape", "moon", "--material", "wood", "--out", store / "t.png"]
+    assert main([str(a) for a in inside]) == 2
+    assert f"--out {store / 't.png'} lies inside the dataset {store}" in capsys.readouterr().err
+    assert not (store / "t.png").exists()
 
 
 def test_view_explains_when_there_is_no_display(monkeypatch, capsys):
