@@ -13,7 +13,7 @@ source gives; nothing is tuned per shape, material or class.
         configuration whatif would measure.
     python3 scripts/calibrate.py sweep [--trials-per-class 20] [--seeds 1]
                                        [--only SECTION.FIELD] [--base SECTION.FIELD=VALUE]
-                                       [--out DIR]
+                                       [--out DIR [--resume]]
         Each global parameter of SWEEP over its cited range (one at a time, the others at
         their defaults, or at the values ``--base`` sets, each within its parameter's cited
         range, to see how two parameters act together): generates the paper grid, runs the
@@ -30,6 +30,9 @@ source gives; nothing is tuned per shape, material or class.
         shares move by several points with its seed. The paper's shares are of its own D,
         so the table also gives the share of each split's first 6 (cross-shape) and 12
         (cross-material) ranked features and their gap (``pvdf_share_paper_d_*``).
+        DIR's tables are rewritten after every candidate, so an interrupted sweep keeps
+        the rows it measured; ``--resume`` reuses the rows of DIR's table measured with
+        the same trials per class, seeds and configuration, and measures the rest.
 
     python3 scripts/calibrate.py whatif --set SECTION.FIELD=VALUE [--set ...]
                                         [--trials-per-class 20] [--seeds 1]
@@ -50,8 +53,10 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import hashlib
 import json
 import math
+import os
 import sys
 import tempfile
 import time
@@ -61,6 +66,7 @@ import numpy as np
 
 import synth
 from shapes import SHAPE_NAMES
+from synth.atomic import check_out_dir
 
 #: Not a configuration field: a factor on every material's texture amplitudes (roughness
 #: and periodic marks), swept to see how much of the materials' signature the texture
@@ -365,54 +371,109 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     held = _parse_base(args.base)
     for (section, field), value in held.items():
         base = _with(base, section, field, value)
+    out = Path(args.out) if args.out else None
+    if out is not None:
+        check_out_dir(out)
+    reuse = _previous_measurements(out, args) if args.resume else {}
     rows = []
     done: dict[str, dict] = {}  # the default configuration recurs in every parameter's sweep
     with tempfile.TemporaryDirectory() as tmp:
         where = Path(tmp) / "grid"
-        for section, field, candidates, why in SWEEP:
-            if args.only and f"{section}.{field}" not in args.only:
-                continue
-            if (section, field) in held:
-                continue  # held at its --base value
-            default = _default(base, section, field)
-            for value in candidates:
-                t0 = time.perf_counter()
-                config = _with(base, section, field, value)
-                key = json.dumps(config.to_dict(), sort_keys=True)
-                if key not in done:
-                    done[key] = _measured(config, args.trials_per_class, args.seeds, where)
-                metrics = done[key]
-                row = {
-                    "parameter": f"{section}.{field}",
-                    "value": value,
-                    "default": bool(np.isclose(value, default)),
-                    "why": why,
-                    **metrics,
-                }
-                rows.append(row)
-                print(
-                    f"{row['parameter']} = {value:g}{' (default)' if row['default'] else ''}: "
-                    + ", ".join(f"{k} {_fmt(k, metrics[k])}" for k in metrics)
-                    + f"  [{time.perf_counter() - t0:.0f} s]",
-                    flush=True,
-                )
-    if args.out:
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
-        (out / "calibration.json").write_text(json.dumps(rows, indent=1) + "\n")
-        keys = [k for k in list(rows[0])[4:] if not k.endswith("_sd")]
-        lines = ["| parameter | value | " + " | ".join(keys) + " |", "|---" * (len(keys) + 2) + "|"]
-        for r in rows:
-            mark = " (default)" if r["default"] else ""
-            vals = " | ".join(
-                _fmt(k, r[k])
-                + (f" ± {r[k + '_sd']:.3f}" if args.seeds > 1 and k in SPREAD_KEYS else "")
-                for k in keys
-            )
-            lines.append(f"| {r['parameter']} | {r['value']:g}{mark} | {vals} |")
-        (out / "calibration.md").write_text("\n".join(lines) + "\n")
+        try:
+            for section, field, candidates, why in SWEEP:
+                if args.only and f"{section}.{field}" not in args.only:
+                    continue
+                if (section, field) in held:
+                    continue  # held at its --base value
+                default = _default(base, section, field)
+                for value in candidates:
+                    t0 = time.perf_counter()
+                    config = _with(base, section, field, value)
+                    key = _config_key(config)
+                    if key not in done:
+                        done[key] = reuse.get(key) or _measured(
+                            config, args.trials_per_class, args.seeds, where
+                        )
+                    metrics = done[key]
+                    row = {
+                        "parameter": f"{section}.{field}",
+                        "value": value,
+                        "default": bool(np.isclose(value, default)),
+                        "why": why,
+                        **metrics,
+                        "trials_per_class": args.trials_per_class,
+                        "seeds": args.seeds,
+                        "config_sha256": key,
+                    }
+                    rows.append(row)
+                    print(
+                        f"{row['parameter']} = {value:g}{' (default)' if row['default'] else ''}: "
+                        + ", ".join(f"{k} {_fmt(k, metrics[k])}" for k in metrics)
+                        + f"  [{time.perf_counter() - t0:.0f} s"
+                        + (", kept from the earlier sweep]" if key in reuse else "]"),
+                        flush=True,
+                    )
+                    if out is not None:  # after every candidate: an interruption keeps them
+                        _write_tables(out, rows, list(metrics), args.seeds)
+        except KeyboardInterrupt:
+            kept = f"; {len(rows)} rows are in {out / 'calibration.json'}" if out else ""
+            again = " (add --resume to continue)" if out else ""
+            raise SystemExit(f"sweep interrupted{kept}{again}") from None
+    if out is not None:
         print(f"wrote {out / 'calibration.md'} and calibration.json")
     return 0
+
+
+def _config_key(config: synth.SynthConfig) -> str:
+    """A configuration's identity: the SHA-256 of its canonical JSON."""
+    text = json.dumps(config.to_dict(), sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _previous_measurements(out: Path | None, args: argparse.Namespace) -> dict[str, dict]:
+    """``--resume``: the metrics of the rows in ``out/calibration.json`` that were measured
+    with this sweep's trials per class and seeds, by configuration."""
+    if out is None:
+        raise SystemExit("--resume needs --out DIR (the sweep whose rows it keeps)")
+    path = out / "calibration.json"
+    if not path.is_file():
+        return {}
+    try:
+        rows = json.loads(path.read_text())
+        kept = {
+            r["config_sha256"]: {k: r[k] for k in r["metrics"]}
+            for r in rows
+            if (r["trials_per_class"], r["seeds"]) == (args.trials_per_class, args.seeds)
+        }
+    except (ValueError, KeyError, TypeError) as exc:
+        raise SystemExit(
+            f"--resume: {path} is not a sweep table this script wrote ({type(exc).__name__}: "
+            f"{exc}); choose another --out or remove it"
+        ) from None
+    return kept
+
+
+def _write_tables(out: Path, rows: list[dict], metrics: list[str], seeds: int) -> None:
+    """``out/calibration.json`` (every row, with the names of its metrics) and
+    ``calibration.md`` (the table), each replaced whole."""
+    out.mkdir(parents=True, exist_ok=True)
+    table = [{**r, "metrics": metrics} for r in rows]
+    keys = [k for k in metrics if not k.endswith("_sd")]
+    lines = ["| parameter | value | " + " | ".join(keys) + " |", "|---" * (len(keys) + 2) + "|"]
+    for r in rows:
+        mark = " (default)" if r["default"] else ""
+        vals = " | ".join(
+            _fmt(k, r[k]) + (f" ± {r[k + '_sd']:.3f}" if seeds > 1 and k in SPREAD_KEYS else "")
+            for k in keys
+        )
+        lines.append(f"| {r['parameter']} | {r['value']:g}{mark} | {vals} |")
+    for name, text in (
+        ("calibration.json", json.dumps(table, indent=1) + "\n"),
+        ("calibration.md", "\n".join(lines) + "\n"),
+    ):
+        tmp = out / f".{name}.partial"
+        tmp.write_text(text)
+        os.replace(tmp, out / name)
 
 
 #: Configuration sections whose numeric fields ``whatif --set`` may change.
@@ -530,7 +591,14 @@ def main(argv: list[str] | None = None) -> int:
         metavar="SECTION.FIELD=VALUE",
         help="hold a swept parameter at this value and sweep the others (repeatable)",
     )
-    p.add_argument("--out", help="write calibration.md and calibration.json here")
+    p.add_argument(
+        "--out", help="write calibration.md and calibration.json here (after every candidate)"
+    )
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="keep the rows of --out's table measured with the same trials and seeds",
+    )
     p.set_defaults(func=cmd_sweep)
     p = sub.add_parser("whatif", help="one configuration, any values (not a calibration)")
     p.add_argument(

@@ -92,6 +92,59 @@ def test_a_held_parameter_is_set_in_every_candidate_and_not_swept(tmp_path, monk
     ]
 
 
+def _fake_metrics(config) -> dict:
+    yaw = config.variability.yaw_rad
+    return {
+        "class_all": 0.5 + yaw,
+        "pvdf_share_cross_shape": 0.5,
+        "pvdf_share_cross_material": 0.5 - yaw,
+        "pvdf_share_paper_d_cross_shape": 0.5,
+        "pvdf_share_paper_d_cross_material": 0.5,
+    }
+
+
+def test_an_interrupted_sweep_keeps_its_rows_and_resumes_where_it_stopped(tmp_path, monkeypatch):
+    calibrate = _calibrate_module()
+    calls = []
+
+    def evaluate(config, trials_per_class, where, seed):
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        calls.append(config.variability.yaw_rad)
+        return _fake_metrics(config)
+
+    monkeypatch.setattr(calibrate, "_evaluate", evaluate)
+    argv = ["sweep", "--only", "variability.yaw_rad", "--out", str(tmp_path)]
+    with pytest.raises(SystemExit, match=r"sweep interrupted; 2 rows are in .*--resume"):
+        calibrate.main(argv)
+    rows = json.loads((tmp_path / "calibration.json").read_text())
+    assert [r["value"] for r in rows] == [0.0, 0.005]
+    assert len((tmp_path / "calibration.md").read_text().splitlines()) == 2 + 2
+
+    def resumed(config, trials_per_class, where, seed):
+        calls.append(config.variability.yaw_rad)
+        return _fake_metrics(config)
+
+    monkeypatch.setattr(calibrate, "_evaluate", resumed)
+    assert calibrate.main([*argv, "--resume"]) == 0
+    assert calls == [0.0, 0.005, 0.01, 0.02]  # the first two were not measured again
+    rows = json.loads((tmp_path / "calibration.json").read_text())
+    assert [r["value"] for r in rows] == [0.0, 0.005, 0.01, 0.02]
+    assert [r["pvdf_share_gap"] for r in rows] == pytest.approx([0.0, 0.005, 0.01, 0.02])
+    # other trials per class: nothing is reused
+    assert calibrate.main([*argv, "--resume", "--trials-per-class", "5"]) == 0
+    assert calls[4:] == [0.0, 0.005, 0.01, 0.02]
+
+
+def test_sweep_resume_refuses_without_out_and_a_foreign_table(tmp_path):
+    calibrate = _calibrate_module()
+    with pytest.raises(SystemExit, match=r"--resume needs --out DIR"):
+        calibrate.main(["sweep", "--resume"])
+    (tmp_path / "calibration.json").write_text('{"rows": 1}')
+    with pytest.raises(SystemExit, match=r"^--resume: .*calibration.json is not a sweep table"):
+        calibrate.main(["sweep", "--out", str(tmp_path), "--resume"])
+
+
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
