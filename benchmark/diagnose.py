@@ -40,8 +40,8 @@ import numpy as np
 from shapes import SHAPE_NAMES
 from synth import CHANNELS, CLASS_NAMES, MATERIAL_NAMES, SAMPLE_RATE_HZ, Dataset
 from synth.atomic import check_out_dir
+from synth.store import enclosing_store
 
-from .outputs import dataset_containing
 from .splits import condition_name
 
 #: Channel groups: key, human-readable name, sensor kept (None: all features).
@@ -1071,7 +1071,7 @@ def run_diagnose(
     say = progress or (lambda msg: None)
     if out is not None:
         check_out_dir(out)  # before loading, so a bad --out fails at once
-        inside = dataset_containing(Path(os.path.abspath(out)))
+        inside = enclosing_store(out, itself=True)
         if inside is not None:  # the report's files do not belong in a store
             raise ValueError(f"--out {out} lies inside the dataset {inside}; choose another DIR")
     data = load_for_diagnosis(path, allow_incomplete=allow_incomplete, progress=say)

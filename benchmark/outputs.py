@@ -21,7 +21,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from types import TracebackType
 
-from synth import atomic
+from synth import atomic, store
 
 #: The file that marks a directory as written by tactile-synth.
 MARKER = ".tactile-synth-output"
@@ -31,13 +31,6 @@ STATE = ("data", "checkpoints")
 
 def _inside(path: Path, parent: Path) -> bool:
     return path == parent or parent in path.parents
-
-
-def dataset_containing(path: Path) -> Path | None:
-    """The dataset (Zarr store) that is ``path`` or holds it, if any (the outermost: an
-    array's directory inside a store has its own ``zarr.json``)."""
-    stores = [p for p in (path, *path.parents) if (p / "zarr.json").is_file()]
-    return stores[-1] if stores else None
 
 
 class OutputDir:
@@ -70,7 +63,7 @@ class OutputDir:
     def _check(self) -> None:
         out = self.out
         atomic.check_out_dir(out)
-        inside = dataset_containing(Path(os.path.abspath(out)))
+        inside = store.enclosing_store(out, itself=True)
         if inside is not None:
             raise ValueError(f"--out {out} lies inside the dataset {inside}; choose another DIR")
         root = Path(os.path.abspath(out))

@@ -19,11 +19,7 @@ def _target(path: Path, out: str | Path | None, fmt: str, overwrite: bool) -> Pa
     target = Path(out) if out is not None else path.with_suffix(f".{fmt}")
     if target.is_dir():
         raise IsADirectoryError(f"--out {target} is a directory; give a file name")
-    inside = store.enclosing_store(target)
-    if inside is not None:  # a file written there would sit among (or replace) its arrays
-        raise ValueError(
-            f"--out {target} lies inside the dataset {inside}; choose a path outside it"
-        )
+    store.check_not_inside_a_store(target)  # a file there would sit among its arrays
     if target.exists() and not overwrite:
         raise FileExistsError(f"{target} exists; pass --overwrite to replace it or choose --out")
     target.parent.mkdir(parents=True, exist_ok=True)

@@ -215,11 +215,13 @@ def is_store(path: Path) -> bool:
     return (Path(path) / "zarr.json").is_file()
 
 
-def enclosing_store(path: str | Path) -> Path | None:
+def enclosing_store(path: str | Path, *, itself: bool = False) -> Path | None:
     """The store that holds ``path`` below its root (one of its arrays, or anything
-    further down), if any: a dataset written there would replace part of that store. An
-    array's directory has its own ``zarr.json``, so the outermost one is the store."""
-    stores = [p for p in Path(os.path.abspath(path)).parents if is_store(p)]
+    further down), or with ``itself`` also the store that ``path`` is, if any: a dataset
+    or a file written there would replace part of that store. An array's directory has
+    its own ``zarr.json``, so the outermost one is the store."""
+    p = Path(os.path.abspath(path))
+    stores = [q for q in ((p,) if itself else ()) + tuple(p.parents) if is_store(q)]
     return stores[-1] if stores else None
 
 
