@@ -373,7 +373,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         base = _with(base, section, field, value)
     out = Path(args.out) if args.out else None
     if out is not None:
-        check_out_dir(out)
+        try:
+            check_out_dir(out)
+        except OSError as exc:
+            raise SystemExit(str(exc)) from None
     reuse = _previous_measurements(out, args) if args.resume else {}
     rows = []
     done: dict[str, dict] = {}  # the default configuration recurs in every parameter's sweep

@@ -136,11 +136,19 @@ def test_an_interrupted_sweep_keeps_its_rows_and_resumes_where_it_stopped(tmp_pa
     assert calls[4:] == [0.0, 0.005, 0.01, 0.02]
 
 
-def test_sweep_resume_refuses_without_out_and_a_foreign_table(tmp_path):
+def test_sweep_resume_refuses_without_out_and_a_foreign_table(tmp_path, monkeypatch):
     calibrate = _calibrate_module()
+
+    def evaluate(*args):
+        raise AssertionError("a refused sweep measures nothing")
+
+    monkeypatch.setattr(calibrate, "_evaluate", evaluate)
     with pytest.raises(SystemExit, match=r"--resume needs --out DIR"):
         calibrate.main(["sweep", "--resume"])
-    (tmp_path / "calibration.json").write_text('{"rows": 1}')
+    table = tmp_path / "calibration.json"
+    table.write_text('{"rows": 1}')
+    with pytest.raises(SystemExit, match=rf"^--out {table} is a file; choose a directory"):
+        calibrate.main(["sweep", "--out", str(table)])
     with pytest.raises(SystemExit, match=r"^--resume: .*calibration.json is not a sweep table"):
         calibrate.main(["sweep", "--out", str(tmp_path), "--resume"])
 
