@@ -39,10 +39,11 @@ source gives; nothing is tuned per shape, material or class.
                                         [--closed-set EPISODES]
         Not a calibration: one configuration with any numeric field set to any value its
         dataclass accepts, inside or outside a cited range (``materials.texture_scale``
-        as in the sweep), to measure what the real finger would have to be for a target
-        to be met. Prints the sweep's metrics over the seeds and, with ``--closed-set N``,
-        AFOP-ML's closed-set 1-shot row over N episodes on a paper-preset dataset
-        (seed 0) of that configuration. The defaults never come from it.
+        as in the sweep; ``materials.marks_scale`` scales the periodic marks alone), to
+        measure what the real finger would have to be for a target to be met. Prints the
+        sweep's metrics over the seeds and, with ``--closed-set N``, AFOP-ML's
+        closed-set 1-shot row over N episodes on a paper-preset dataset (seed 0) of that
+        configuration. The defaults never come from it.
 
 The sweep simulates 36 classes x ``--trials-per-class`` trials per candidate and seed
 (720 at the default of 20; about a minute each on 2 cores, and the selection adds about
@@ -72,6 +73,11 @@ from synth.atomic import check_out_dir
 #: and periodic marks), swept to see how much of the materials' signature the texture
 #: carries.
 TEXTURE_SCALE = ("materials", "texture_scale")
+#: Not a configuration field either: a factor on every material's periodic marks alone
+#: (the random roughness kept), for whatif to ask what the marks carry.
+MARKS_SCALE = ("materials", "marks_scale")
+#: The material-wide factors, which are not configuration fields.
+MATERIAL_FACTORS = (TEXTURE_SCALE, MARKS_SCALE)
 
 #: Global parameters and the values their sources allow: (section, field, candidates, why).
 SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
@@ -127,9 +133,10 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
 
 
 def _with(config: synth.SynthConfig, section: str, field: str, value: float):
-    if (section, field) == TEXTURE_SCALE:
+    if (section, field) in MATERIAL_FACTORS:
+        roughness = value if (section, field) == TEXTURE_SCALE else 1.0
         for material in config.materials.values():
-            config = config.with_material(_scaled_texture(material, value))
+            config = config.with_material(_scaled_texture(material, value, roughness))
         return config
     part = dataclasses.replace(getattr(config, section), **{field: value})
     return dataclasses.replace(config, **{section: part})
@@ -137,20 +144,24 @@ def _with(config: synth.SynthConfig, section: str, field: str, value: float):
 
 def _default(config: synth.SynthConfig, section: str, field: str) -> float:
     """The configuration's value of a swept parameter (1 for the texture scale)."""
-    if (section, field) == TEXTURE_SCALE:
+    if (section, field) in MATERIAL_FACTORS:
         return 1.0
     return getattr(getattr(config, section), field)
 
 
-def _scaled_texture(material: synth.Material, factor: float) -> synth.Material:
-    """``material`` with its roughness RMS and every periodic mark's amplitude times
-    ``factor`` (its correlation length and wavelengths unchanged)."""
+def _scaled_texture(
+    material: synth.Material, factor: float, roughness_factor: float | None = None
+) -> synth.Material:
+    """``material`` with every periodic mark's amplitude times ``factor`` and its
+    roughness RMS times ``roughness_factor`` (``factor`` if not given); its correlation
+    length and wavelengths unchanged."""
     texture = material.texture
+    roughness = factor if roughness_factor is None else roughness_factor
     marks = tuple(
         dataclasses.replace(p, amplitude_m=p.amplitude_m * factor) for p in texture.periodic
     )
     scaled = dataclasses.replace(
-        texture, roughness_rms_m=texture.roughness_rms_m * factor, periodic=marks
+        texture, roughness_rms_m=texture.roughness_rms_m * roughness, periodic=marks
     )
     return dataclasses.replace(material, texture=scaled)
 
@@ -485,13 +496,14 @@ SECTIONS = ("finger", "motion", "variability", "strain_gauge", "pvdf", "acquisit
 
 def _parse_set(items: list[str] | None) -> dict[tuple[str, str], float]:
     """``--set SECTION.FIELD=VALUE`` items as ``{(section, field): value}``: a numeric
-    field of a configuration section (or ``materials.texture_scale``), each set once."""
+    field of a configuration section (or ``materials.texture_scale`` or
+    ``materials.marks_scale``), each set once."""
     defaults = synth.SynthConfig()
     out: dict[tuple[str, str], float] = {}
     for item in items or ():
         name, sep, text = item.partition("=")
         section, _, field = name.partition(".")
-        known = (section, field) == TEXTURE_SCALE or (
+        known = (section, field) in MATERIAL_FACTORS or (
             section in SECTIONS
             and field in {f.name for f in dataclasses.fields(getattr(defaults, section))}
             and type(getattr(getattr(defaults, section), field)) in (int, float)
@@ -499,7 +511,8 @@ def _parse_set(items: list[str] | None) -> dict[tuple[str, str], float]:
         if not sep or not known:
             raise SystemExit(
                 "--set must be SECTION.FIELD=VALUE with a numeric field of "
-                f"{', '.join(SECTIONS)} (or materials.texture_scale); got {item!r}"
+                f"{', '.join(SECTIONS)} (or materials.texture_scale or .marks_scale); "
+                f"got {item!r}"
             )
         try:
             value = float(text)
@@ -509,7 +522,7 @@ def _parse_set(items: list[str] | None) -> dict[tuple[str, str], float]:
             raise SystemExit(f"--set {name} needs a finite number; got {text!r}")
         if (section, field) in out:
             raise SystemExit(f"--set sets {name} twice")
-        if (section, field) != TEXTURE_SCALE and type(
+        if (section, field) not in MATERIAL_FACTORS and type(
             getattr(getattr(defaults, section), field)
         ) is int:
             if not value.is_integer():

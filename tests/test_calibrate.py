@@ -188,6 +188,20 @@ def test_gain_sizes_the_default_post_gain_and_any_configurations(capsys):
         calibrate.main(argv)
 
 
+def test_marks_scale_scales_the_periodic_marks_and_keeps_the_roughness():
+    calibrate = _calibrate_module()
+    base = synth.SynthConfig()
+    ((key, value),) = calibrate._parse_set(["materials.marks_scale=0.25"]).items()
+    scaled = calibrate._with(base, *key, value)
+    for name, material in base.materials.items():
+        texture = scaled.materials[name].texture
+        assert texture.roughness_rms_m == material.texture.roughness_rms_m
+        for mark, original in zip(texture.periodic, material.texture.periodic, strict=True):
+            assert mark.amplitude_m == pytest.approx(0.25 * original.amplitude_m)
+            assert mark.wavelength_m == original.wavelength_m
+    assert calibrate._with(base, *key, 1.0).to_dict() == base.to_dict()
+
+
 def test_whatif_refuses_a_configuration_the_adc_cannot_record_in_one_line():
     calibrate = _calibrate_module()
     argv = ["whatif", "--set", "pvdf.post_gain=500", "--trials-per-class", "2"]
