@@ -199,6 +199,19 @@ def test_lock_is_exclusive_and_released(tmp_path):
         pass
 
 
+def test_a_lock_that_cannot_be_created_names_the_path_asked_for(tmp_path, monkeypatch):
+    target = tmp_path / "ds"
+
+    def refuse(path, *args):
+        raise PermissionError(13, "Permission denied", str(path))
+
+    monkeypatch.setattr(atomic.os, "open", refuse)
+    with pytest.raises(PermissionError) as info:
+        atomic.PathLock(target).acquire()
+    assert info.value.filename == str(target)
+    assert "cannot create the lock file beside it" in info.value.strerror
+
+
 def test_lock_makes_missing_parents_and_a_failed_job_removes_them(tmp_path):
     target = tmp_path / "a" / "b" / "ds"
     with pytest.raises(RuntimeError), store.locked(target):
