@@ -78,9 +78,8 @@ class PathLock:
             try:
                 fd = os.open(self.file, os.O_RDWR | os.O_CREAT, 0o644)
             except OSError as exc:  # name the path asked for, not only its lock file
-                raise type(exc)(
-                    exc.errno, f"{exc.strerror} (cannot create the lock file beside it)", str(self.path)
-                ) from None
+                why = f"{exc.strerror} (cannot create the lock file beside it)"
+                raise type(exc)(exc.errno, why, str(self.path)) from None
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except OSError as exc:
