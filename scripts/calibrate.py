@@ -43,7 +43,8 @@ source gives; nothing is tuned per shape, material or class.
         measure what the real finger would have to be for a target to be met. Prints the
         sweep's metrics over the seeds and, with ``--closed-set N``, AFOP-ML's
         closed-set 1-shot row over N episodes on a paper-preset dataset (seed 0) of that
-        configuration. The defaults never come from it.
+        configuration, with the fit's D, PVDF share and t-SNE indicators. The defaults
+        never come from it.
 
 The sweep simulates 36 classes x ``--trials-per-class`` trials per candidate and seed
 (720 at the default of 20; about a minute each on 2 cores, and the selection adds about
@@ -536,20 +537,39 @@ def _parse_set(items: list[str] | None) -> dict[tuple[str, str], float]:
 
 def _closed_set_row(config: synth.SynthConfig, episodes: int, where: Path) -> dict:
     """AFOP-ML's closed-set 1-shot accuracy per N-way (%, over ``episodes`` episodes) on
-    the paper preset (seed 0) generated with ``config``."""
+    the paper preset (seed 0) generated with ``config``, and of the same fit, as a full
+    run reports them: its D, the PVDF share of its selected features and the t-SNE
+    indicators of the test half in them (1-NN shape accuracy, mix-sil, DGI)."""
     from benchmark import protocols
+    from benchmark.engine import Features
+    from benchmark.interpret import analyse, sensor_shares
     from benchmark.results import select
+    from models.features import FEATURE_NAMES
     from synth.presets import preset
 
     synth.generate(preset("paper").replace(synth=config.to_dict()), where, overwrite=True)
-    records = protocols.run(
-        "closed-set", synth.load_dataset(where), methods=["AFOP-ML"], episodes=episodes, seed=0
-    )
-    return {
+    data = synth.load_dataset(where)
+    records = protocols.run("closed-set", data, methods=["AFOP-ML"], episodes=episodes, seed=0)
+    row = {
         f"closed_set_1shot_{r['way']}way": 100 * r["accuracy"]
         for r in select(records, "accuracy")
         if r["shot"] == 1
     }
+    selection = select(records, "selection")[0]
+    _, artefacts = analyse(data, records, features=Features(), episodes=episodes, seed=0)
+    return {
+        **row,
+        "closed_set_d": selection["D"],
+        "closed_set_pvdf_share": sensor_shares(selection["selected"], FEATURE_NAMES)[0],
+        **{f"tsne_{k}": v for k, v in artefacts.indicators.items()},
+    }
+
+
+def _fmt_closed_set(key: str, value: float) -> str:
+    """A closed-set row's figure: accuracies in % to 2 decimals, D whole, the rest to 3."""
+    if key.startswith("closed_set_1shot_"):
+        return f"{value:.2f}"
+    return f"{value:d}" if key == "closed_set_d" else f"{value:.3f}"
 
 
 def cmd_whatif(args: argparse.Namespace) -> int:
@@ -570,7 +590,7 @@ def cmd_whatif(args: argparse.Namespace) -> int:
             print(", ".join(f"{k} {_fmt(k, v)}" for k, v in metrics.items()), flush=True)
             if args.closed_set:
                 row = _closed_set_row(config, args.closed_set, Path(tmp) / "paper")
-                print(", ".join(f"{k} {v:.2f}" for k, v in row.items()), flush=True)
+                print(", ".join(f"{k} {_fmt_closed_set(k, v)}" for k, v in row.items()))
         except SaturationError as exc:
             # A setting that raises a channel's signal can drive it beyond the ADC's range;
             # the DAQ cannot record that configuration as set.
@@ -630,7 +650,7 @@ def main(argv: list[str] | None = None) -> int:
         type=int,
         default=0,
         metavar="EPISODES",
-        help="also AFOP-ML's closed-set 1-shot row over this many episodes",
+        help="also AFOP-ML's closed-set 1-shot row over this many episodes (and its t-SNE)",
     )
     p.set_defaults(func=cmd_whatif)
     args = parser.parse_args(argv)

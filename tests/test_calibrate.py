@@ -226,7 +226,7 @@ def test_whatif_evaluates_the_set_configuration_over_every_seed(monkeypatch, cap
 
     def closed_set(config, episodes, where):
         closed.append((config, episodes))
-        return {"closed_set_1shot_5way": 90.0}
+        return {"closed_set_1shot_5way": 90.0, "closed_set_d": 8, "tsne_dgi": 4.769}
 
     monkeypatch.setattr(calibrate, "_evaluate", evaluate)
     monkeypatch.setattr(calibrate, "_closed_set_row", closed_set)
@@ -246,7 +246,7 @@ def test_whatif_evaluates_the_set_configuration_over_every_seed(monkeypatch, cap
     assert calibrate.main([*argv, "--closed-set", "50"]) == 0
     assert [e for _, e in closed] == [50]
     assert closed[0][0] == config
-    assert "closed_set_1shot_5way 90.00" in capsys.readouterr().out
+    assert "closed_set_1shot_5way 90.00, closed_set_d 8, tsne_dgi 4.769" in capsys.readouterr().out
 
 
 def test_a_candidate_over_seeds_reports_means_the_share_gap_and_their_spread():
