@@ -40,7 +40,7 @@ import numpy as np
 from shapes import SHAPE_NAMES
 from synth import CHANNELS, CLASS_NAMES, MATERIAL_NAMES, SAMPLE_RATE_HZ, Dataset
 from synth.atomic import check_out_dir
-from synth.store import enclosing_store
+from synth.store import check_not_inside_a_store
 
 from .splits import condition_name
 
@@ -1071,9 +1071,8 @@ def run_diagnose(
     say = progress or (lambda msg: None)
     if out is not None:
         check_out_dir(out)  # before loading, so a bad --out fails at once
-        inside = enclosing_store(out, itself=True)
-        if inside is not None:  # the report's files do not belong in a store
-            raise ValueError(f"--out {out} lies inside the dataset {inside}; choose another DIR")
+        # The report's files do not belong in a store.
+        check_not_inside_a_store(out, itself=True, advice="choose another DIR")
     data = load_for_diagnosis(path, allow_incomplete=allow_incomplete, progress=say)
     diag = diagnose(data, source=str(path), progress=say)
     if out is not None:

@@ -63,9 +63,7 @@ class OutputDir:
     def _check(self) -> None:
         out = self.out
         atomic.check_out_dir(out)
-        inside = store.enclosing_store(out, itself=True)
-        if inside is not None:
-            raise ValueError(f"--out {out} lies inside the dataset {inside}; choose another DIR")
+        store.check_not_inside_a_store(out, itself=True, advice="choose another DIR")
         root = Path(os.path.abspath(out))
         kept = [root / s for s in STATE]
         for p in self.inputs:

@@ -544,19 +544,24 @@ def _closed_set_row(config: synth.SynthConfig, episodes: int, where: Path) -> di
     from benchmark.engine import Features
     from benchmark.interpret import analyse, sensor_shares
     from benchmark.results import select
-    from models.features import FEATURE_NAMES
+    from models.features import FEATURE_NAMES, extract
     from synth.presets import preset
 
     synth.generate(preset("paper").replace(synth=config.to_dict()), where, overwrite=True)
     data = synth.load_dataset(where)
-    records = protocols.run("closed-set", data, methods=["AFOP-ML"], episodes=episodes, seed=0)
+    pool = extract(data.signals)  # the fit and the t-SNE read the same pool
+    records = protocols.run(
+        "closed-set", data, methods=["AFOP-ML"], episodes=episodes, seed=0, features=pool
+    )
     row = {
         f"closed_set_1shot_{r['way']}way": 100 * r["accuracy"]
         for r in select(records, "accuracy")
         if r["shot"] == 1
     }
     selection = select(records, "selection")[0]
-    _, artefacts = analyse(data, records, features=Features(), episodes=episodes, seed=0)
+    _, artefacts = analyse(
+        data, records, features=Features([(data, pool)]), episodes=episodes, seed=0
+    )
     return {
         **row,
         "closed_set_d": selection["D"],
@@ -598,17 +603,19 @@ def cmd_whatif(args: argparse.Namespace) -> int:
     return 0
 
 
+def _add_set_option(parser: argparse.ArgumentParser, what: str) -> None:
+    """The repeatable ``--set SECTION.FIELD=VALUE`` option (read by :func:`_configured`)."""
+    parser.add_argument(
+        "--set", action="append", metavar="SECTION.FIELD=VALUE", help=f"{what} (repeatable)"
+    )
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
     sub.add_parser("skin", help="fit the skin contact to Hertz").set_defaults(func=cmd_skin)
     p = sub.add_parser("gain", help="the PVDF post-amplifier gain")
-    p.add_argument(
-        "--set",
-        action="append",
-        metavar="SECTION.FIELD=VALUE",
-        help="size the gain for this configuration, as whatif sets it (repeatable)",
-    )
+    _add_set_option(p, "size the gain for this configuration, as whatif sets it")
     p.set_defaults(func=cmd_gain)
     p = sub.add_parser("sweep", help="the global parameters over their cited ranges")
     p.add_argument("--trials-per-class", type=int, default=20)
@@ -637,12 +644,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     p.set_defaults(func=cmd_sweep)
     p = sub.add_parser("whatif", help="one configuration, any values (not a calibration)")
-    p.add_argument(
-        "--set",
-        action="append",
-        metavar="SECTION.FIELD=VALUE",
-        help="set a numeric configuration field (repeatable)",
-    )
+    _add_set_option(p, "set a numeric configuration field")
     p.add_argument("--trials-per-class", type=int, default=20)
     p.add_argument("--seeds", type=int, default=1, help="dataset seeds (0..N-1; default 1)")
     p.add_argument(

@@ -225,12 +225,15 @@ def enclosing_store(path: str | Path, *, itself: bool = False) -> Path | None:
     return stores[-1] if stores else None
 
 
-def check_not_inside_a_store(out: str | Path) -> None:
-    """A one-line ``ValueError`` naming ``--out`` if ``out`` lies inside another dataset
-    store, where writing (or replacing with ``--overwrite``) would damage that store."""
-    inside = enclosing_store(out)
+def check_not_inside_a_store(
+    out: str | Path, *, itself: bool = False, advice: str = "choose a path outside it"
+) -> None:
+    """A one-line ``ValueError`` naming ``--out`` (ending with ``advice``) if ``out`` lies
+    inside another dataset store (or, with ``itself``, is one), where writing (or
+    replacing with ``--overwrite``) would damage that store."""
+    inside = enclosing_store(out, itself=itself)
     if inside is not None:
-        raise ValueError(f"--out {out} lies inside the dataset {inside}; choose a path outside it")
+        raise ValueError(f"--out {out} lies inside the dataset {inside}; {advice}")
 
 
 def is_complete(path: str | Path) -> bool:
