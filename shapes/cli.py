@@ -44,6 +44,7 @@ def _export(args: argparse.Namespace) -> int:
     fmt = check_choice("--format", args.format, FORMATS)
     unit = check_choice("--unit", args.unit, tuple(UNITS))
     names = [check_shape(args.shape)] if args.shape is not None else list(SHAPE_NAMES)
+    _check_out_not_in_a_store(args.out, itself=True)  # files among its arrays damage it
     bar = tqdm(names, desc=f"export {fmt}", unit="shape", disable=not sys.stderr.isatty())
     for name in bar:
         path = export(name, args.out, fmt, unit=unit)
@@ -54,9 +55,20 @@ def _export(args: argparse.Namespace) -> int:
 def _preview(args: argparse.Namespace) -> int:
     from shapes.preview import preview
 
+    _check_out_not_in_a_store(args.out)
     path = preview(args.out)
     print(f"wrote {path}")
     return 0
+
+
+def _check_out_not_in_a_store(out: str, *, itself: bool = False) -> None:
+    """Refuse an ``--out`` inside a dataset store (or, with ``itself``, a store's own
+    directory) in one line, before anything is built or written. The check is the
+    dataset commands' own, imported here so the shapes package stays independent of
+    the simulator."""
+    from synth.store import check_not_inside_a_store
+
+    check_not_inside_a_store(out, itself=itself)
 
 
 def _info(args: argparse.Namespace) -> int:

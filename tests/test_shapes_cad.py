@@ -244,6 +244,21 @@ def test_cli_preview_writes_a_png(tmp_path, capsys):
         _cli(["shapes", "preview", "--out", str(tmp_path / "shapes.jpg")])
 
 
+def test_cli_refuses_an_out_inside_a_dataset_store(tmp_path):
+    # A store is a Zarr group: its root and each array's directory hold a zarr.json.
+    data = tmp_path / "data"
+    (data / "signals").mkdir(parents=True)
+    for d in (data, data / "signals"):
+        (d / "zarr.json").write_text("{}")
+    before = sorted(p.relative_to(data) for p in data.rglob("*"))
+    for out in (data, data / "signals", data / "meshes"):
+        with pytest.raises(ValueError, match=rf"^--out {out} lies inside the dataset {data};"):
+            _cli(["shapes", "export", "--out", str(out), "--shape", "square"])
+    with pytest.raises(ValueError, match=rf"^--out {data / 'o.png'} lies inside the dataset"):
+        _cli(["shapes", "preview", "--out", str(data / "o.png")])
+    assert sorted(p.relative_to(data) for p in data.rglob("*")) == before
+
+
 def test_cli_info_lists_all_shapes(capsys):
     assert _cli(["shapes", "info"]) == 0
     out = capsys.readouterr().out
