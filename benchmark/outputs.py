@@ -17,7 +17,7 @@ import datetime as _dt
 import json
 import os
 import shutil
-from collections.abc import Iterable
+from collections.abc import Mapping
 from pathlib import Path
 from types import TracebackType
 
@@ -38,9 +38,10 @@ class OutputDir:
     into ``tmp``; on a clean exit it replaces ``out``'s output set at once (``out``'s
     ``data/`` and ``checkpoints/`` are kept; ``tmp/checkpoints`` already points at them).
 
-    ``inputs``: paths the command reads (datasets); one that the replacement would delete
-    is refused. ``out`` itself (for state such as ``run``'s datasets) exists and carries
-    the marker from ``__enter__`` on.
+    ``inputs``: argument name -> path the command reads (datasets); one that the
+    replacement would delete (symbolic links followed) is refused, naming its argument.
+    ``out`` itself (for state such as ``run``'s datasets) exists and carries the marker
+    from ``__enter__`` on.
     """
 
     def __init__(
@@ -49,13 +50,13 @@ class OutputDir:
         *,
         overwrite: bool = False,
         command: str = "",
-        inputs: Iterable[str | Path | None] = (),
+        inputs: Mapping[str, str | Path | None] | None = None,
     ) -> None:
         out = Path(out)
         self.out = out.resolve() if out.is_symlink() else out
         self.overwrite = overwrite
         self.command = command
-        self.inputs = [Path(p) for p in inputs if p is not None]
+        self.inputs = {arg: Path(p) for arg, p in (inputs or {}).items() if p is not None}
         self.tmp = atomic.sibling(self.out, "new")
         self._lock = atomic.PathLock(self.out)
 
@@ -64,14 +65,14 @@ class OutputDir:
         out = self.out
         atomic.check_out_dir(out)
         store.check_not_inside_a_store(out, itself=True, advice="choose another DIR")
-        root = Path(os.path.abspath(out))
+        root = out.resolve()
         kept = [root / s for s in STATE]
-        for p in self.inputs:
-            p = Path(os.path.abspath(p))
+        for arg, given in self.inputs.items():
+            p = given.resolve()
             if _inside(p, root) and not any(_inside(p, k) for k in kept):
                 raise ValueError(
-                    f"the dataset {p} lies inside --out {out}, whose contents are replaced; "
-                    f"move it to {root / 'data'} or outside {out}"
+                    f"{arg} {given} lies inside --out {out}, whose contents are replaced; "
+                    f"move the dataset to {root / 'data'} or outside {out}"
                 )
         if out.is_dir() and any(out.iterdir()) and not (out / MARKER).is_file():
             if not self.overwrite:

@@ -278,7 +278,10 @@ def run(
         if path is not None and not Path(path).is_dir():
             raise FileNotFoundError(f"--{arg} {path} is not a dataset directory")
     t_start = time.perf_counter()
-    with OutputDir(out, overwrite=overwrite, command="run") as target:
+    # The given datasets are inputs: OutputDir refuses any that replacing out's contents
+    # would delete (only out/data is kept across runs).
+    inputs = {"--data": data, "--perturbed": perturbed}
+    with OutputDir(out, overwrite=overwrite, command="run", inputs=inputs) as target:
         paths = prepare_datasets(
             plan, out, given, progress=progress, workers=workers, simulator=simulator
         )

@@ -60,7 +60,7 @@ def benchmark_protocol(
     perturbed = load_dataset(perturbed_path) if perturbed_path is not None else None
     if perturbed is not None and needs_perturbed:
         check_perturbation_pair(data, perturbed)
-    inputs = (data_path, perturbed_path)
+    inputs = {"--data": data_path, "--perturbed": perturbed_path}
     with OutputDir(out, overwrite=overwrite, command=f"benchmark {protocol}", inputs=inputs) as out:
         if chosen is None:
             return benchmark_all(

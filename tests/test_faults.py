@@ -636,6 +636,29 @@ def test_benchmark_refuses_a_foreign_output_directory(complete, capsys, tmp_path
     assert len(load_dataset(inner)) == 12
 
 
+def test_run_refuses_a_given_dataset_inside_its_output_directory(tmp_path, capsys):
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    (runs / ".tactile-synth-output").write_text("{}")  # a DIR run wrote before
+    inner = make(runs / "mydata")
+    before = files(inner)
+    pert = make(tmp_path / "pert", config=tiny(forces_n=(0.6,)))
+    for extra in ([], ["--overwrite"]):
+        args = ["run", "--out", runs, "--quick", "--data", inner, "--perturbed", pert, *extra]
+        code, _, err = cli(args, capsys)
+        assert code == 2 and f"--data {inner} lies inside --out" in one_line(err)
+        code, _, err = cli(["run", "--out", runs, "--quick", "--perturbed", inner], capsys)
+        assert code == 2 and f"--perturbed {inner} lies inside --out" in one_line(err)
+    assert files(inner) == before
+    # run's own datasets under DIR/data are kept state, not inputs the swap deletes
+    from benchmark.outputs import OutputDir
+
+    kept = make(runs / "data" / "nominal")
+    with OutputDir(runs, command="run", inputs={"--data": kept}) as tmp:
+        (tmp / "report.md").write_text("report")
+    assert len(load_dataset(kept)) == 12
+
+
 def test_output_set_is_replaced_whole_and_state_is_kept(tmp_path):
     from benchmark.outputs import MARKER, OutputDir
 
