@@ -2,7 +2,8 @@
 
 A checkpoint is ``{"key": ..., "records": [...]}``: the key is a SHA-256 of everything
 that determines the records (dataset fingerprints, methods and their settings, the
-package version, episode budget, seed, protocol) and of :data:`LAYOUT`, so a re-run with
+package version, the source files of plug-in methods and protocols, episode budget,
+seed, protocol) and of :data:`LAYOUT`, so a re-run with
 the same inputs reuses them and any change recomputes.
 Records are written and read through :mod:`benchmark.results` (schema version checked,
 typed on load); a damaged or foreign file counts as no checkpoint.
@@ -12,7 +13,9 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import re
+import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -22,6 +25,9 @@ import numpy as np
 from synth import Dataset
 
 from .results import from_json, to_json
+
+#: Top-level packages of tactile-synth: the package version covers their classes' code.
+OWN_PACKAGES = frozenset({"shapes", "synth", "models", "benchmark", "tactile_synth"})
 
 #: Version of what a checkpoint's records hold (AFOP-ML's selection records with their
 #: selected features, a dscan record per AFOP-ML fit, the reference curve on the
@@ -59,6 +65,28 @@ def method_settings(methods: Sequence[str]) -> dict[str, dict[str, Any]]:
             and isinstance(v, (bool, int, float, str, type(None), tuple))
         }
     return out
+
+
+def source_hash(cls: type) -> str | None:
+    """SHA-256 (16 hex chars) of the bytes of the file that defines ``cls``, for the
+    checkpoint key of a plug-in method or protocol, so that a run after an edit to its
+    code recomputes; None for tactile-synth's own classes (the package version in the key
+    covers their code) and for a class without a source file."""
+    module = sys.modules.get(cls.__module__)
+    if cls.__module__.split(".")[0] in OWN_PACKAGES or module is None:
+        return None
+    path = getattr(module, "__file__", None)
+    if path is None or not os.path.isfile(path):
+        return None
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
+
+
+def method_sources(methods: Sequence[str]) -> dict[str, str]:
+    """Method name -> :func:`source_hash` of its class, for every plug-in method."""
+    from models.registry import method_class
+
+    hashes = {name: source_hash(method_class(name)) for name in methods}
+    return {name: h for name, h in hashes.items() if h is not None}
 
 
 def key(inputs: Mapping[str, Any]) -> str:

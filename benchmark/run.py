@@ -81,19 +81,26 @@ def run_protocols(
         "version": store_versions()["package_version"],
         "seed": seed,
     }
+    # Plug-ins' source hashes join the key only when there are any, so that the keys of
+    # runs of built-in methods and protocols stay those of earlier versions.
+    sources = checkpoints.method_sources(methods)
+    if sources:
+        base["sources"] = sources
     found: dict[int, list[Record]] = {}
     processes = 0
     pending: list[tuple[int, Protocol, str, list[Task]]] = []
     for i, protocol in enumerate(protocols):
         per_method = budget.for_protocol(protocol.name)
-        key = checkpoints.key(
-            {
-                **base,
-                "protocol": protocol.name,
-                "episodes": budget.default,
-                "per_method": dict(sorted(per_method.items())),
-            }
-        )
+        inputs = {
+            **base,
+            "protocol": protocol.name,
+            "episodes": budget.default,
+            "per_method": dict(sorted(per_method.items())),
+        }
+        protocol_source = checkpoints.source_hash(type(protocol))
+        if protocol_source is not None:
+            inputs["protocol_source"] = protocol_source
+        key = checkpoints.key(inputs)
         cached = checkpoints.load(out, protocol.name, key)
         if cached is not None:
             log(progress, f"{protocol.name}: reusing checkpoint")

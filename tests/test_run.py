@@ -4,6 +4,7 @@ bit, resumability, and the real ``tactile-synth run --quick`` (slow)."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,6 +12,7 @@ import pytest
 import synth
 import synth.generation as generation
 from benchmark.budget import Budget
+from benchmark.engine import Features
 from benchmark.figures import FIGURE_FILES
 from benchmark.report import strip_timing
 from benchmark.results import TIMING_FIELDS, select
@@ -105,6 +107,40 @@ def test_benchmark_all_resumes_from_checkpoints(datasets, tmp_path, monkeypatch)
     monkeypatch.setattr(run_mod, "run_task_sets", counting)
     benchmark_all(data, pert, tmp_path, **kw)
     assert ran, "checkpoints made with other hyper-parameters were reused"
+
+
+def test_checkpoints_are_recomputed_after_an_edit_to_a_plugin_file(datasets, tmp_path, monkeypatch):
+    """Plug-in methods and protocols are keyed by their source file's bytes: an edit that
+    keeps every setting still recomputes the protocol."""
+    import shutil
+
+    import benchmark.run as run_mod
+    from benchmark.protocols import get
+
+    data, _ = datasets
+    root = Path(__file__).resolve().parents[1] / "examples"
+    method_file = shutil.copy(root / "nearest_mean.py", tmp_path / "mine.py")
+    protocol_file = shutil.copy(root / "leave_one_material_out.py", tmp_path / "lomo.py")
+    method = f"{method_file}:NearestClassMean"
+    protocol = get(f"{protocol_file}:LeaveOneMaterialOut")
+    ran = []
+    real = run_mod.run_task_sets
+
+    def counting(*a, **k):
+        ran.append(1)
+        return real(*a, **k)
+
+    monkeypatch.setattr(run_mod, "run_task_sets", counting)
+    kw = dict(methods=[method], budget=Budget(default=5), seed=0, progress=False)
+    kw.update(features=Features(), workers=1)
+    out = tmp_path / "out"
+    run_mod.run_protocols([protocol], data, None, out, **kw)
+    run_mod.run_protocols([protocol], data, None, out, **kw)
+    assert len(ran) == 1  # unchanged files: the checkpoint is reused
+    for edited in (method_file, protocol_file):
+        Path(edited).write_text(Path(edited).read_text() + "# edited\n")
+        run_mod.run_protocols([protocol], data, None, out, **kw)
+    assert len(ran) == 3, "a checkpoint made by other plug-in code was reused"
 
 
 def test_benchmark_all_validates_inputs(datasets, tmp_path):
