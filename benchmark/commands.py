@@ -74,7 +74,8 @@ def _register_benchmark(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--overwrite",
         action="store_true",
-        help="replace the contents of a non-empty DIR that tactile-synth did not write",
+        help="replace the contents of a non-empty DIR even if tactile-synth did not write "
+        "them, and compute every protocol again (no checkpoint of DIR is reused)",
     )
     p.add_argument(
         "--workers",
@@ -138,8 +139,9 @@ def _register_run(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--overwrite",
         action="store_true",
-        help="replace the contents of a non-empty DIR that tactile-synth did not write "
-        "(DIR/data and DIR/checkpoints are kept)",
+        help="replace the contents of a non-empty DIR even if tactile-synth did not write "
+        "them, and compute every protocol again (no checkpoint of DIR is reused; the "
+        "datasets in DIR/data are kept)",
     )
     p.add_argument(
         "--data",
@@ -176,7 +178,10 @@ def _run(args: argparse.Namespace) -> int:
             perturbed=args.perturbed,
         )
     except KeyboardInterrupt:
-        again = shlex.join(getattr(args, "argv", None) or ["run", "--out", str(args.out)])
+        # The same command without --overwrite continues: this run's DIR carries the
+        # marker now, and --overwrite would start the finished protocols over.
+        argv = getattr(args, "argv", None) or ["run", "--out", str(args.out)]
+        again = shlex.join(a for a in argv if a != "--overwrite")
         print(
             f"tactile-synth run: interrupted; the finished datasets and protocols in {args.out} "
             f"are kept: `tactile-synth {again}` continues from them",

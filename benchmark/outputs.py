@@ -7,7 +7,8 @@ without it belongs to someone else and is refused unless ``--overwrite``. The ou
 so no file of an earlier run (an old ``table1.md``) survives beside new results, and an
 interrupted run leaves the previous outputs as they were. Two sub-directories are state
 kept across runs, not outputs: ``data/`` (``run``'s resumable datasets) and
-``checkpoints/`` (finished protocols); they move into the new set at the swap. One process
+``checkpoints/`` (finished protocols; ``--overwrite`` starts them over); they move into
+the new set at the swap. One process
 at a time may write an output directory (a lock beside it).
 """
 
@@ -37,6 +38,9 @@ class OutputDir:
     """``with OutputDir(out, overwrite=..., command=...) as tmp:`` write the output set
     into ``tmp``; on a clean exit it replaces ``out``'s output set at once (``out``'s
     ``data/`` and ``checkpoints/`` are kept; ``tmp/checkpoints`` already points at them).
+
+    ``overwrite``: accept a non-empty ``out`` without the marker, and start over: the
+    checkpoints of earlier runs are deleted (``data/`` is kept).
 
     ``inputs``: argument name -> path the command reads (datasets); one that the
     replacement would delete (symbolic links followed) is refused, naming its argument.
@@ -114,6 +118,8 @@ class OutputDir:
             # run is recognised as ours); the new output set starts empty beside it.
             self.out.mkdir(parents=True, exist_ok=True)
             self._write_marker(self.out)
+            if self.overwrite:
+                self._drop_checkpoints()
             (self.out / "checkpoints").mkdir(exist_ok=True)
             self.tmp.mkdir()
             os.symlink(os.path.abspath(self.out / "checkpoints"), self.tmp / "checkpoints")
@@ -121,6 +127,15 @@ class OutputDir:
             self._lock.release()
             raise
         return self.tmp
+
+    def _drop_checkpoints(self) -> None:
+        """``overwrite`` starts over: every protocol is computed again, none is taken
+        from the checkpoints of the results being replaced."""
+        path = self.out / "checkpoints"
+        if path.is_symlink() or path.is_file():
+            path.unlink()
+        elif path.is_dir():
+            shutil.rmtree(path)
 
     def _recover(self) -> None:
         """Undo what a killed process left: finish or roll back its swap, move kept state

@@ -606,6 +606,17 @@ def test_ctrl_c_in_run_keeps_its_datasets_and_says_how_to_continue(tmp_path, cap
     assert sorted(p.name for p in tmp_path.iterdir()) == ["runs"]
 
 
+def test_ctrl_c_in_run_overwrite_advises_continuing_without_overwrite(
+    tmp_path, capsys, monkeypatch
+):
+    runs = tmp_path / "runs"
+    monkeypatch.setattr(
+        generation, "mujoco_simulator", FakeSimulator(fail_at=1, error=KeyboardInterrupt())
+    )
+    code, _, err = cli(["run", "--out", runs, "--quick", "--overwrite"], capsys)
+    assert code == 130 and f"`tactile-synth run --out {runs} --quick` continues" in err
+
+
 def test_run_advice_names_only_runs_options(tmp_path, capsys):
     runs = tmp_path / "runs"
     make(runs / "data" / "nominal")  # a dataset of another grid where run keeps its own
@@ -682,3 +693,9 @@ def test_output_set_is_replaced_whole_and_state_is_kept(tmp_path):
     assert (out / "data" / "keep.txt").read_text() == "dataset"
     assert (out / "checkpoints" / "closed-set.json").is_file()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no leftovers beside it
+    # --overwrite starts over: the results it replaces give it no checkpoint
+    with OutputDir(out, overwrite=True, command="benchmark closed-set") as tmp:
+        assert list((tmp / "checkpoints").iterdir()) == []
+        (tmp / "results.json").write_text("[3]")
+    assert list((out / "checkpoints").iterdir()) == []
+    assert (out / "data" / "keep.txt").read_text() == "dataset"
