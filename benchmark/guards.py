@@ -10,6 +10,7 @@ from typing import Any
 from shapes.validation import check_int
 from synth import Dataset, store
 from synth.generation import available_memory, generate
+from synth.presets import NOMINAL_FORCE_N, NOMINAL_SPEED_MM_S
 
 #: Most episodes per (protocol, way, shot) cell. The 95 % CI half-width of a mean accuracy
 #: is 1.96 * sd / sqrt(episodes) with sd <= 0.5, so at this count it is below 0.31
@@ -44,23 +45,47 @@ def _conditions(data: Dataset) -> set[tuple[float, float]]:
     return {(float(f), float(s)) for f, s in zip(data.force_n, data.speed_mm_s, strict=True)}
 
 
+def _names(conditions: set[tuple[float, float]]) -> str:
+    return ", ".join(f"{f:g} N/{s:g} mm/s" for f, s in sorted(conditions))
+
+
+def check_nominal(data: Dataset, perturbed: Dataset | None = None) -> None:
+    """Refuse a nominal dataset with no trial at the nominal condition (1 N, 10 mm/s): the
+    perturbation protocol fits on it as trained "at nominal force and speed", and reads
+    every condition of the perturbation dataset as a departure from it. Such a ``data``
+    is most often the perturbation dataset given as --data (the two swapped)."""
+    nominal = (NOMINAL_FORCE_N, NOMINAL_SPEED_MM_S)
+    have = _conditions(data)
+    if nominal in have:
+        return
+    swapped = perturbed is not None and nominal in _conditions(perturbed)
+    raise ValueError(
+        f"--data holds no trial at the nominal condition {_names({nominal})} that the "
+        f"perturbation protocol fits on (it holds {_names(have)}); --data is the nominal "
+        f"dataset and --perturbed the one at other forces and speeds"
+        + ("; they look swapped" if swapped else "")
+    )
+
+
 def check_perturbation_pair(data: Dataset, perturbed: Dataset, *, seeds: bool = True) -> None:
     """Refuse a perturbation dataset whose trials could repeat the nominal dataset's: any
     force/speed condition in both, or (``seeds``) any class drawn with the same trial seed
-    in both (the same specimen draws and sensor noise on both sides of the split).
+    in both (the same specimen draws and sensor noise on both sides of the split); and a
+    nominal dataset without the nominal condition (:func:`check_nominal`).
 
     ``seeds=False`` is for hand-made datasets that number their trials from 0 in each
     dataset (unit tests); the generator mixes the condition into every trial seed.
     """
-    shared = sorted(_conditions(data) & _conditions(perturbed))
+    shared = _conditions(data) & _conditions(perturbed)
     if shared:
-        names = ", ".join(f"{f:g} N/{s:g} mm/s" for f, s in shared)
+        names = _names(shared)
         raise ValueError(
             f"--perturbed shares the condition(s) {names} with --data: its trials would "
             f"test the methods on the condition they were trained on (is it the same "
             f"dataset?); use a perturbation dataset without those conditions, e.g. "
             f"`tactile-synth generate --preset perturbation`"
         )
+    check_nominal(data, perturbed)
     if not seeds:
         return
     nominal = set(zip(data.label.tolist(), data.seed.tolist(), strict=True))

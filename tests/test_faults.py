@@ -444,6 +444,17 @@ def test_perturbation_data_overlapping_the_nominal_data_is_refused(complete, cap
     check_perturbation_pair(load_dataset(out), load_dataset(pert))  # generated: disjoint
 
 
+def test_swapped_nominal_and_perturbation_datasets_are_refused(tmp_path, capsys):
+    nominal = make(tmp_path / "nominal", config=tiny(forces_n=(1.0,)))
+    pert = make(tmp_path / "pert", config=tiny(forces_n=(0.6, 1.4)))
+    args = ["benchmark", "perturbation", "--data", pert, "--perturbed", nominal]
+    code, _, err = cli([*args, "--out", tmp_path / "b"], capsys)
+    line = one_line(err)
+    assert code == 2 and "--data holds no trial at the nominal condition 1 N/10 mm/s" in line
+    assert "0.6 N/10 mm/s, 1.4 N/10 mm/s" in line and "they look swapped" in line
+    assert not (tmp_path / "b").exists()
+
+
 # -- 8. unbounded inputs -------------------------------------------------------------------
 @pytest.mark.parametrize(
     "args, expect",
