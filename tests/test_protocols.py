@@ -216,6 +216,13 @@ def test_perturbation_with_one_condition_still_has_its_summary(data):
         )
 
 
+def test_perturbation_dataset_too_small_for_any_episode_is_refused(data, spy):
+    one = make_dataset(trials_per_class=1, n_samples=200, force_n=0.6, speed_mm_s=6.0, seed=5)
+    with pytest.raises(ValueError, match=r"--perturbed is too small .* 2 trials per class"):
+        _run_perturbation(data, one)
+    assert spy.log == []  # refused before any fit
+
+
 def test_unknown_method_and_missing_perturbed(data):
     with pytest.raises(ValueError, match="method must be one of"):
         protocols.run("cross-shape", data, methods=["kNN"], episodes=5, seed=0)

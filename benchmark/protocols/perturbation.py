@@ -26,11 +26,11 @@ import numpy as np
 from synth import Dataset
 
 from ..budget import EpisodeBudget
-from ..engine import Pool, Protocol, Task
+from ..engine import Pool, Protocol, Task, n_query_for
 from ..guards import check_perturbation_pair
 from ..splits import condition_name, split_halves
 from .closed_set import FIT_KEY, fit_seed
-from .curves import curve_grid
+from .curves import SHOT, WAYS, curve_grid
 
 PROTOCOL = "perturbation"
 POOLED = "pooled"
@@ -42,6 +42,23 @@ def conditions(perturbed: Dataset) -> list[tuple[float, float]]:
         (float(f), float(s)) for f, s in zip(perturbed.force_n, perturbed.speed_mm_s, strict=True)
     }
     return sorted(pairs)
+
+
+def _check_episodes_fit(perturbed: Dataset, tests: list[np.ndarray]) -> None:
+    """Refuse a perturbation dataset from which no test pool can draw a single episode of
+    the curve (its smallest cell: :data:`WAYS`'s first N classes with ``SHOT + 1`` trials
+    each, one of them a query), naming --perturbed and what it holds; a run would
+    otherwise write a report without perturbation results."""
+    way, need = WAYS[0], SHOT + 1
+    if any(n_query_for(perturbed.label[idx], way, SHOT) >= 1 for idx in tests):
+        return
+    most = max(int(np.unique(perturbed.label[idx], return_counts=True)[1].max()) for idx in tests)
+    raise ValueError(
+        f"--perturbed is too small for any perturbation episode: one needs at least {way} "
+        f"classes with {need} trials per class in one force/speed condition (or {need} per "
+        f"class over all conditions), and it holds {np.unique(perturbed.label).size} "
+        f"class(es) with at most {most} trial(s) each"
+    )
 
 
 class Perturbation(Protocol):
@@ -65,6 +82,7 @@ class Perturbation(Protocol):
             for f, s in conditions(perturbed)
         ]
         tests.append((POOLED, np.arange(len(perturbed))))
+        _check_episodes_fit(perturbed, [idx for _, idx in tests])
         return [
             Task(
                 protocol=PROTOCOL,
