@@ -223,6 +223,24 @@ def test_perturbation_dataset_too_small_for_any_episode_is_refused(data, spy):
     assert spy.log == []  # refused before any fit
 
 
+def test_generalisation_protocols_name_the_shapes_or_materials_data_lacks(spy):
+    few = make_dataset(trials_per_class=2, n_samples=200, shapes=("circle", "ellipse", "square"))
+    with pytest.raises(ValueError) as info:
+        protocols.run("cross-shape", few, methods=["AFOP-ML"], episodes=5)
+    assert str(info.value).startswith(
+        "--data has no trial of the shapes semicircle, pentagon, parallelogram, trapezoid "
+        "that cross-shape split 2 tests on (--data holds circle, ellipse, square)"
+    )
+    one = make_dataset(trials_per_class=2, n_samples=200, materials=(MATERIAL_NAMES[0],))
+    with pytest.raises(ValueError) as info:
+        protocols.run("cross-material", one, methods=["AFOP-ML"], episodes=5)
+    assert str(info.value).startswith(
+        f"--data has no trial of the materials {', '.join(MATERIAL_NAMES[1:])} that "
+        f"cross-material split {MATERIAL_NAMES[0]} tests on"
+    )
+    assert spy.log == []  # refused before any fit
+
+
 def test_unknown_method_and_missing_perturbed(data):
     with pytest.raises(ValueError, match="method must be one of"):
         protocols.run("cross-shape", data, methods=["kNN"], episodes=5, seed=0)

@@ -7,12 +7,12 @@ adds records across splits (``fold=None``) and AFOP-ML's selection per split.
 
 from __future__ import annotations
 
-from synth import Dataset
+from synth import MATERIAL_NAMES, Dataset
 
 from ..budget import EpisodeBudget
 from ..engine import Protocol, Task
 from ..splits import cross_material_splits
-from .curves import split_tasks
+from .curves import check_splits, held, split_tasks
 
 
 class CrossMaterial(Protocol):
@@ -24,4 +24,7 @@ class CrossMaterial(Protocol):
     ) -> list[Task]:
         """One task per training material: fit on it, test on the other two."""
         splits = cross_material_splits(data)
+        check_splits(
+            self.name, splits, "materials", held(data.material, MATERIAL_NAMES), "all 3 materials"
+        )
         return split_tasks(self.name, data, splits, seed=seed, episodes=episodes)

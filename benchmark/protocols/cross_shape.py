@@ -7,12 +7,13 @@ The engine adds records across folds (``fold=None``) and AFOP-ML's selection per
 
 from __future__ import annotations
 
+from shapes import SHAPE_NAMES
 from synth import Dataset
 
 from ..budget import EpisodeBudget
 from ..engine import Protocol, Task
 from ..splits import cross_shape_splits
-from .curves import split_tasks
+from .curves import check_splits, held, split_tasks
 
 
 class CrossShape(Protocol):
@@ -23,4 +24,6 @@ class CrossShape(Protocol):
         self, data: Dataset, perturbed: Dataset | None, *, seed: int, episodes: EpisodeBudget
     ) -> list[Task]:
         """One task per fold: fit on its 8 shapes, test on its 4 unseen shapes."""
-        return split_tasks(self.name, data, cross_shape_splits(data), seed=seed, episodes=episodes)
+        splits = cross_shape_splits(data)
+        check_splits(self.name, splits, "shapes", held(data.shape, SHAPE_NAMES), "all 12 shapes")
+        return split_tasks(self.name, data, splits, seed=seed, episodes=episodes)

@@ -27,11 +27,37 @@ def curve_grid(seed: int, protocol: str, task_index: int) -> tuple[Cell, ...]:
     return tuple(Cell(way, SHOT, child_seed(seed, protocol, task_index, way)) for way in WAYS)
 
 
+def held(values: np.ndarray, order: Sequence[str]) -> list[str]:
+    """The names among ``order`` that ``values`` (a dataset's shapes or materials) hold."""
+    present = set(np.unique(values).tolist())
+    return [v for v in order if v in present]
+
+
+def check_splits(
+    protocol: str, splits: Sequence[Split], kind: str, have: Sequence[str], needs: str
+) -> None:
+    """Refuse, naming --data, a dataset in which a split has no training or no test trial
+    (the engine cannot fit or test on nothing): the message names the ``kind`` (shapes,
+    materials) that split needs, ``have`` (what the dataset holds) and ``needs`` (what the
+    protocol needs)."""
+    for s in splits:
+        for side, mask, values in (
+            ("trains", s.train, s.train_values),
+            ("tests", s.test, s.test_values),
+        ):
+            if not mask.any():
+                raise ValueError(
+                    f"--data has no trial of the {kind} {', '.join(values)} that "
+                    f"{protocol} split {s.fold} {side} on (--data holds "
+                    f"{', '.join(have) or 'none'}); the {protocol} protocol needs {needs}"
+                )
+
+
 def split_tasks(
     protocol: str, data: Dataset, splits: Sequence[Split], *, seed: int, episodes: EpisodeBudget
 ) -> list[Task]:
     """One task per split of ``data``: fit on its training trials, a 1-shot curve on its
-    test trials; ``fold`` is the split's fold."""
+    test trials; ``fold`` is the split's fold (:func:`check_splits` first)."""
     return [
         Task(
             protocol=protocol,
