@@ -73,12 +73,16 @@ def describe_error(exc: BaseException) -> tuple[str, int]:
     """``(one-line message, exit status)`` for an exception that ends a command.
 
     2: the input is at fault (a bad argument or path, a damaged or locked dataset);
-    1: the work failed (physics, disk, memory) or a bug (the message says to use --debug).
+    1: the work failed (physics, disk, memory, a plug-in's own code) or a bug (the
+    message says to use --debug).
     """
+    from models.registry import PluginError
     from synth import SimulationError
 
     if isinstance(exc, SimulationError):
         return f"the physics failed: {exc}", 1
+    if isinstance(exc, PluginError):
+        return f"{exc}; rerun with --debug for its traceback", 1
     if isinstance(exc, OSError) and exc.filename is not None and exc.strerror:
         where = f"{exc.filename}" + (f" -> {exc.filename2}" if exc.filename2 else "")
         return f"{exc.strerror}: {where}", 2 if _is_path_error(exc) else 1

@@ -30,7 +30,8 @@ from __future__ import annotations
 import time
 import zlib
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Hashable, Iterable, Sequence
+from collections.abc import Callable, Hashable, Iterable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from typing import ClassVar, NamedTuple
 
@@ -77,6 +78,26 @@ def check_methods(methods: Sequence[str]) -> tuple[str, ...]:
 def make_method(name: str, seed: int = 0) -> FewShotMethod:
     """A new, unfitted method ``name`` built with ``seed`` (:func:`models.registry.make_method`)."""
     return registry.make_method(name, seed=seed)
+
+
+@contextmanager
+def plugin_stage(name: str, stage: str) -> Iterator[None]:
+    """Run a ``stage`` (fit, predict) of method ``name``; an exception a plug-in method
+    raises there becomes a :class:`models.registry.PluginError` naming the method as given
+    on --methods and the stage (its exception the cause, for --debug's traceback), so
+    that the user reads it as the plug-in's failure, not tactile-synth's. Built-in methods'
+    exceptions, running out of memory and interrupts pass unchanged."""
+    try:
+        yield
+    except (MemoryError, registry.PluginError):
+        raise
+    except Exception as exc:
+        if registry.is_builtin(name):
+            raise
+        raise registry.PluginError(
+            f"--methods {name}: the plug-in method failed in {stage}: "
+            f"{type(exc).__name__}: {exc or 'no message'}"
+        ) from exc
 
 
 def n_query_for(labels: np.ndarray, n_way: int, k_shot: int = 1) -> int:
@@ -383,10 +404,12 @@ def run_fit(
     the shares that ask for ``name`` (the other shares get empty results)."""
     first = group.first
     fit = first.fit
-    method = make_method(name, seed=first.fit_seed)
-    t0 = time.perf_counter()
-    method.fit(fit.data.signals[fit.index], fit.labels, features=features.of(fit.data)[fit.index])
-    pretrain_s = time.perf_counter() - t0
+    pool = features.of(fit.data)[fit.index]
+    with plugin_stage(name, "fit"):
+        method = make_method(name, seed=first.fit_seed)
+        t0 = time.perf_counter()
+        method.fit(fit.data.signals[fit.index], fit.labels, features=pool)
+        pretrain_s = time.perf_counter() - t0
     if on_fit is not None:
         on_fit(first, name, method)
     out = []
@@ -549,7 +572,10 @@ def _evaluate_task(
         batch = sample_episodes(
             lab, n_way=cell.way, k_shot=cell.shot, n_query=q, episodes=n_ep, seed=cell.seed
         )
-        result = evaluate(method, sig, batch, features=f, latency_episodes=cell.latency_episodes)
+        with plugin_stage(name, "predict"):
+            result = evaluate(
+                method, sig, batch, features=f, latency_episodes=cell.latency_episodes
+            )
         rec = accuracy_record(
             protocol=task.protocol,
             fold=task.fold,

@@ -46,6 +46,17 @@ METHOD_NAMES: tuple[str, ...] = tuple(_METHODS)
 ENTRY_POINT_GROUP = "tactile_synth.methods"
 
 
+class PluginError(Exception):
+    """A plug-in method (or protocol) failed inside its own code: the message names the
+    plug-in as it was given and the stage (fit, predict), and the plug-in's exception is
+    the cause. A failure of the plug-in's code, not of tactile-synth's."""
+
+
+def is_builtin(name: str) -> bool:
+    """Whether ``name`` is one of tactile-synth's own methods (:data:`METHOD_NAMES`)."""
+    return name in _METHODS
+
+
 def plugin_methods() -> dict[str, str]:
     """Entry-point name -> ``"module:Class"`` of every installed plug-in method (names of
     built-in methods are left out: the built-in wins)."""

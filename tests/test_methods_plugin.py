@@ -147,6 +147,54 @@ def test_bad_methods_fail_in_one_line_naming_the_argument(
     assert not (tmp_path / "d").exists()  # refused before any work
 
 
+class _FailsInFit(FewShotMethod):
+    name = "fails-in-fit"
+
+    def _fit(self, signals, labels, features):
+        raise RuntimeError("my bug in fit")
+
+    def _predict(self, signals, support, query, features):
+        raise AssertionError("never reached")
+
+
+class _FailsInPredict(_FailsInFit):
+    name = "fails-in-predict"
+
+    def _fit(self, signals, labels, features):
+        pass
+
+    def _predict(self, signals, support, query, features):
+        return {}["no such key"]
+
+
+@pytest.mark.parametrize(
+    ("cls", "stage", "error"),
+    [
+        ("_FailsInFit", "fit", "RuntimeError: my bug in fit"),
+        ("_FailsInPredict", "predict", "KeyError"),
+    ],
+)
+def test_a_failing_plugin_is_reported_as_the_plugins_error(
+    cls, stage, error, store, tmp_path, monkeypatch, capsys
+):
+    from benchmark.cli import main
+
+    monkeypatch.chdir(REPO)
+    spec = f"{__name__}:{cls}"
+    args = ["benchmark", "closed-set", "--data", store, "--out", tmp_path / "e", "--episodes"]
+    args = [str(a) for a in [*args, "5", "--workers", "1", "--methods", spec]]
+    assert main(args) == 1
+    err = capsys.readouterr().err
+    line = err.strip().splitlines()[-1]  # after the progress lines
+    assert line.startswith("tactile-synth benchmark: error: ") and "Traceback" not in err, err
+    assert f"--methods {spec}: the plug-in method failed in {stage}: {error}" in line
+    assert "internal error" not in line
+    assert main([*args, "--debug"]) == 1
+    err = capsys.readouterr().err
+    assert "Traceback" in err and f"--methods {spec}" in err.splitlines()[-1]
+    assert ("my bug in fit" if stage == "fit" else "no such key") in err
+
+
 def test_run_refuses_a_bad_method_before_generating(tmp_path, capsys):
     from benchmark.cli import main
 

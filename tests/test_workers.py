@@ -18,6 +18,7 @@ from benchmark.protocols.closed_set import ClosedSet, Reference
 from benchmark.protocols.perturbation import Perturbation
 from benchmark.results import TIMING_FIELDS, to_json
 from models.base import FewShotMethod
+from models.registry import PluginError
 from tactile_synth import threads
 from tests.synthetic_data import make_dataset
 from tests.test_run import _perturbed
@@ -151,7 +152,7 @@ def test_worker_processes_give_the_records_of_one_process(datasets):
 
 def test_a_failing_fit_stops_the_run_with_its_error(datasets):
     sets = _sets(datasets)
-    with pytest.raises(ValueError, match="this fit fails on purpose"):
+    with pytest.raises(PluginError, match="failed in fit: ValueError: this fit fails on purpose"):
         engine.run_task_sets(sets, [SPEC.format("Counting"), SPEC.format("Failing")], workers=2)
     deadline = time.monotonic() + 10
     while multiprocessing.active_children() and time.monotonic() < deadline:
