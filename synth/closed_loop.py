@@ -122,8 +122,11 @@ class ClosedLoop:
         self.texture = texture_mod.texture_table(
             [texture_mod.as_loaded(t.surface) for t in self.trials]
         )
-        self.x_ref = np.stack([t.x_ref for t in self.trials])
-        self.y_ref = np.stack([t.y_ref for t in self.trials])
+        # Trials at other forces or speeds plan paths of other lengths; the batch runs as
+        # long as its longest window needs, so shorter paths are extended (see _extend).
+        n_ref = max(t.x_ref.size for t in self.trials)
+        self.x_ref = np.stack([_extend(t.x_ref, n_ref) for t in self.trials])
+        self.y_ref = np.stack([_extend(t.y_ref, n_ref) for t in self.trials])
         self.z_ref = np.array([t.z_ref0 for t in self.trials])
         self.b = b
         # A specimen of several convex pieces: one contact per region of its surface.
@@ -248,6 +251,17 @@ class ClosedLoop:
         if qpos_out is not None:
             self.qpos_ = qpos_out.reshape(b, steps, self.nq)
         return _trial_major(sens_out), _trial_major(height_out)
+
+
+def _extend(ref: np.ndarray, n: int) -> np.ndarray:
+    """``ref`` continued to ``n`` set points at its final step, as a longer plan of the same
+    slide would continue it. A trial's own window ends within its planned path, so the
+    steps added here come after its window and do not change its data."""
+    extra = n - ref.size
+    if extra <= 0:
+        return ref
+    step = ref[-1] - ref[-2]
+    return np.concatenate([ref, ref[-1] + step * np.arange(1, extra + 1)])
 
 
 def _trial_major(periods: np.ndarray) -> np.ndarray:

@@ -73,6 +73,19 @@ def test_rows_resimulate_alone(reference):
     assert not np.array_equal(data.signals[0], data.signals[1])
 
 
+def test_trials_of_other_forces_batch_together_bit_for_bit():
+    """A batch mixing forces (paths of different lengths) gives each trial the bits it has
+    simulated alone."""
+    specs = [
+        synth.TrialSpec("circle", "resin", force_n=0.6, speed_mm_s=10.0, seed=3),
+        synth.TrialSpec("circle", "resin", force_n=1.4, speed_mm_s=10.0, seed=3),
+    ]
+    together = synth.simulate_batch(specs, threads=1)
+    for spec, trial in zip(specs, together, strict=True):
+        alone = synth.simulate_batch([spec], threads=1)[0]
+        np.testing.assert_array_equal(trial.signals, alone.signals)
+
+
 def test_same_bytes_for_process_pool_and_other_chunking(reference, tmp_path):
     pool = synth.generate(tiny(), tmp_path / "pool", workers=2, progress=False)
     assert chunk_bytes(pool) == chunk_bytes(reference)
