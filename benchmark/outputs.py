@@ -103,6 +103,10 @@ class OutputDir:
     # -- the context -----------------------------------------------------------------------
     def __enter__(self) -> Path:
         atomic.check_dir_path(self.out)
+        # The directories this command creates (out and any missing parents), deepest
+        # first: a command that fails before it has anything to keep removes them again.
+        self._made = [p for p in (self.out, *self.out.absolute().parents) if not p.exists()]
+        self._was_empty = self.out.is_dir() and not any(self.out.iterdir())
         try:
             self._lock.acquire()
         except atomic.LockedError as exc:
@@ -125,6 +129,7 @@ class OutputDir:
             os.symlink(os.path.abspath(self.out / "checkpoints"), self.tmp / "checkpoints")
         except BaseException:
             self._lock.release()
+            self._remove_made()
             raise
         return self.tmp
 
@@ -173,5 +178,32 @@ class OutputDir:
                 self._commit()
             else:
                 self._recover()  # the unfinished output set goes; the old one stays
+                self._drop_if_empty()
         finally:
             self._lock.release()
+        if exc_type is not None:
+            self._remove_made()
+
+    def _drop_if_empty(self) -> None:
+        """Remove what ``__enter__`` put into an ``out`` this command created or found
+        empty, if the command failed before it had anything to keep (no dataset, no
+        checkpoint): a failed check leaves ``--out`` as it found it."""
+        created = bool(self._made) and self._made[0] == self.out
+        if not (created or self._was_empty) or not self.out.is_dir():
+            return
+        names = {p.name for p in self.out.iterdir()}
+        checkpoints = self.out / "checkpoints"
+        if names <= {MARKER, "checkpoints"} and not (
+            checkpoints.is_dir() and any(checkpoints.iterdir())
+        ):
+            (self.out / MARKER).unlink(missing_ok=True)
+            if checkpoints.is_dir():
+                checkpoints.rmdir()
+
+    def _remove_made(self) -> None:
+        """Remove the directories of :attr:`_made` that are empty, deepest first."""
+        for path in self._made:
+            try:
+                path.rmdir()
+            except OSError:
+                return  # not empty (kept state, or another process's files): keep it

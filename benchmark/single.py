@@ -53,6 +53,11 @@ def benchmark_protocol(
     check_episodes(episodes)
     check_int("seed", seed, minimum=0)
     workers = default_workers() if workers is None else check_int("workers", workers, minimum=1)
+    if chosen is None and "AFOP-ML" not in methods:
+        raise ValueError(
+            "--methods must include AFOP-ML for 'benchmark all' (its report and Fig. 6/7 are "
+            "about it)"
+        )
     needs_perturbed = chosen is None or chosen.needs_perturbed
     if needs_perturbed and perturbed_path is None:
         raise ValueError(f"--perturbed is required for the {protocol} protocol")

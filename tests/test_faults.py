@@ -681,6 +681,27 @@ def test_run_refuses_a_given_dataset_inside_its_output_directory(tmp_path, capsy
     assert len(load_dataset(kept)) == 12
 
 
+def test_failed_checks_leave_no_new_output_directory(complete, capsys, tmp_path):
+    out, _ = complete
+    pert = make(tmp_path / "pert", config=tiny(forces_n=(0.6,)))
+    new = tmp_path / "new" / "b"
+    for args, expect in (
+        (["benchmark", "all", "--perturbed", pert, "--methods", "Direct-Prot-ML"], "AFOP-ML"),
+        (["benchmark", "closed-set"], "too small for any Table I column"),
+        (["benchmark", "cross-shape", "--methods", "AFOP-ML"], "--data has no trial of the"),
+    ):
+        code, _, err = cli([*args, "--data", out, "--out", new, "--episodes", "1"], capsys)
+        assert code == 2 and expect in one_line(err)
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["ds", "pert"]  # nor its parent
+    code, _, err = cli(["run", "--out", new, "--quick", "--workers", "1000"], capsys)
+    assert code == 2 and "--workers 1000" in one_line(err)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ds", "pert"]
+    # a DIR that existed stays, as it was
+    new.mkdir(parents=True)
+    code, _, err = cli(["benchmark", "closed-set", "--data", out, "--out", new], capsys)
+    assert code == 2 and list(new.iterdir()) == []
+
+
 def test_output_set_is_replaced_whole_and_state_is_kept(tmp_path):
     from benchmark.outputs import MARKER, OutputDir
 
