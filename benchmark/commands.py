@@ -4,6 +4,11 @@
 from __future__ import annotations
 
 import argparse
+import shlex
+import signal
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 from tactile_synth.threads import HELP as THREADS_HELP
 
@@ -88,21 +93,61 @@ def _register_benchmark(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(handler=_benchmark)
 
 
+@contextmanager
+def _terminate_as_interrupt() -> Iterator[None]:
+    """SIGTERM (``kill``, a job scheduler's stop) ends the command as Ctrl-C does: the
+    worker processes are stopped, the unfinished output set removed, the lock released,
+    and the advice printed. Only in the main thread, where Python runs signal handlers."""
+
+    def interrupt(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    try:
+        previous = signal.signal(signal.SIGTERM, interrupt)
+    except ValueError:  # not the main thread
+        previous = None
+    try:
+        yield
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _again(args: argparse.Namespace, fallback: list[str]) -> str:
+    """The command line that continues an interrupted ``args``: the same one without
+    --overwrite (the interrupted run marked its DIR; --overwrite would start the finished
+    protocols over)."""
+    argv = getattr(args, "argv", None) or fallback
+    return shlex.join(a for a in argv if a != "--overwrite")
+
+
 def _benchmark(args: argparse.Namespace) -> int:
     from .single import benchmark_protocol
 
     _check_methods_arg(args.methods)
-    benchmark_protocol(
-        args.protocol,
-        data_path=args.data,
-        perturbed_path=args.perturbed,
-        out=args.out,
-        methods=args.methods,
-        episodes=args.episodes,
-        seed=args.seed,
-        overwrite=args.overwrite,
-        workers=args.workers,
-    )
+    try:
+        with _terminate_as_interrupt():
+            benchmark_protocol(
+                args.protocol,
+                data_path=args.data,
+                perturbed_path=args.perturbed,
+                out=args.out,
+                methods=args.methods,
+                episodes=args.episodes,
+                seed=args.seed,
+                overwrite=args.overwrite,
+                workers=args.workers,
+            )
+    except KeyboardInterrupt:
+        again = _again(args, ["benchmark", args.protocol, "--out", str(args.out)])
+        print(
+            f"tactile-synth benchmark: interrupted; the outputs in {args.out} are as they were "
+            f"and the protocols finished are kept in {args.out}/checkpoints: "
+            f"`tactile-synth {again}` continues from them (a protocol interrupted part-way "
+            f"starts over)",
+            file=sys.stderr,
+        )
+        return 130
     print(f"wrote {args.out}/results.json and {args.out}/report.md")
     return 0
 
@@ -159,29 +204,24 @@ def _register_run(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    import shlex
-    import sys
-
     from .run import run
 
     _check_methods_arg(args.methods)
     try:
-        run(
-            args.out,
-            methods=args.methods,
-            quick=args.quick,
-            seed=args.seed,
-            workers=args.workers,
-            progress=True,
-            overwrite=args.overwrite,
-            data=args.data,
-            perturbed=args.perturbed,
-        )
+        with _terminate_as_interrupt():
+            run(
+                args.out,
+                methods=args.methods,
+                quick=args.quick,
+                seed=args.seed,
+                workers=args.workers,
+                progress=True,
+                overwrite=args.overwrite,
+                data=args.data,
+                perturbed=args.perturbed,
+            )
     except KeyboardInterrupt:
-        # The same command without --overwrite continues: this run's DIR carries the
-        # marker now, and --overwrite would start the finished protocols over.
-        argv = getattr(args, "argv", None) or ["run", "--out", str(args.out)]
-        again = shlex.join(a for a in argv if a != "--overwrite")
+        again = _again(args, ["run", "--out", str(args.out)])
         print(
             f"tactile-synth run: interrupted; the finished datasets and protocols in {args.out} "
             f"are kept: `tactile-synth {again}` continues from them",

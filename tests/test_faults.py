@@ -628,6 +628,31 @@ def test_ctrl_c_in_run_overwrite_advises_continuing_without_overwrite(
     assert code == 130 and f"`tactile-synth run --out {runs} --quick` continues" in err
 
 
+@pytest.mark.parametrize("how", ["SIGINT", "SIGTERM"])
+def test_an_interrupted_benchmark_says_what_is_kept_and_how_to_continue(
+    complete, tmp_path, capsys, monkeypatch, how
+):
+    import signal
+
+    import benchmark.single as single
+
+    out, _ = complete
+    new = tmp_path / "b"
+
+    def interrupted(*a, **k):
+        if how == "SIGTERM":  # what `kill` sends; handled as Ctrl-C
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(5)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(single, "benchmark_protocol", interrupted)
+    args = ["benchmark", "closed-set", "--data", out, "--out", new, "--overwrite"]
+    code, _, err = cli(args, capsys)
+    assert code == 130 and f"protocols finished are kept in {new}/checkpoints" in err
+    assert f"`tactile-synth benchmark closed-set --data {out} --out {new}` continues" in err
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # handed back
+
+
 def test_run_advice_names_only_runs_options(tmp_path, capsys):
     runs = tmp_path / "runs"
     make(runs / "data" / "nominal")  # a dataset of another grid where run keeps its own
