@@ -61,6 +61,9 @@ def benchmark_protocol(
     needs_perturbed = chosen is None or chosen.needs_perturbed
     if needs_perturbed and perturbed_path is None:
         raise ValueError(f"--perturbed is required for the {protocol} protocol")
+    for arg, path in (("--data", data_path), ("--perturbed", perturbed_path)):
+        if path is not None and not Path(path).is_dir():
+            raise FileNotFoundError(f"{arg} {path} is not a dataset directory")
     data = load_dataset(data_path)
     perturbed = load_dataset(perturbed_path) if perturbed_path is not None else None
     if perturbed is not None and needs_perturbed:

@@ -706,6 +706,15 @@ def test_run_refuses_a_given_dataset_inside_its_output_directory(tmp_path, capsy
     assert len(load_dataset(kept)) == 12
 
 
+def test_benchmark_names_the_dataset_argument_that_does_not_exist(complete, capsys, tmp_path):
+    out, _ = complete
+    for arg, data, pert in (("--data", tmp_path / "nope", out), ("--perturbed", out, "nope")):
+        args = ["benchmark", "perturbation", "--data", data, "--perturbed", pert]
+        code, _, err = cli([*args, "--out", tmp_path / "b"], capsys)
+        assert code == 2 and f"{arg} " in one_line(err) and "is not a dataset directory" in err
+    assert not (tmp_path / "b").exists()
+
+
 def test_failed_checks_leave_no_new_output_directory(complete, capsys, tmp_path):
     out, _ = complete
     pert = make(tmp_path / "pert", config=tiny(forces_n=(0.6,)))
