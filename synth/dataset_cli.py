@@ -4,6 +4,7 @@ library."""
 from __future__ import annotations
 
 import argparse
+import re
 import shlex
 import sys
 import time
@@ -173,7 +174,21 @@ def config_from_args(args: argparse.Namespace) -> Any:
         config = store.stored_config(pending if store.is_store(pending) else out)
     else:
         config = preset("paper")
-    return config.replace(**overrides) if overrides else config
+    if not overrides:
+        return config
+    try:
+        return config.replace(**overrides)
+    except ValueError as exc:
+        raise ValueError(_as_typed(str(exc), overrides)) from None
+
+
+def _as_typed(message: str, overrides: dict[str, Any]) -> str:
+    """``message`` with the configuration field it starts with (``forces_n must ...``)
+    named as the option the user typed (``--force must ...``)."""
+    for opt, field in _GRID_OPTIONS.items():
+        if field in overrides and message.startswith((f"{field} ", f"{field}=")):
+            return re.sub(rf"\b{field}\b", "--" + opt.replace("_", "-"), message)
+    return message
 
 
 def _saved(out: Path) -> str | None:

@@ -39,7 +39,13 @@ from shapes.validation import check_choice, check_int
 
 from . import atomic, store
 from .materials import MATERIAL_NAMES
-from .presets import FORCE_RANGE_N, MAX_CHUNK_TRIALS, SPEED_RANGE_MM_S, TrialPlan, condition_name
+from .presets import (
+    MAX_CHUNK_TRIALS,
+    PHYSICAL_FORCE_RANGE_N,
+    PHYSICAL_SPEED_RANGE_MM_S,
+    TrialPlan,
+    condition_name,
+)
 from .trial import CHANNELS, N_SAMPLES, SAMPLE_RATE_HZ, TrialSpec, class_index
 
 #: Columns every labels table has: the recording file (relative to the recordings
@@ -296,9 +302,9 @@ def _label_row(values: dict[str, str], line: int, recordings: Path) -> LabelRow:
         material = check_choice("material", values["material"].lower(), MATERIAL_NAMES)
     except ValueError as exc:
         raise _Bad(str(exc)) from None
-    force = _in_range(_number(values["force_n"], "force_n"), "force_n", "N", FORCE_RANGE_N)
+    force = _in_range(_number(values["force_n"], "force_n"), "force_n", "N", PHYSICAL_FORCE_RANGE_N)
     speed = _in_range(
-        _number(values["speed_mm_s"], "speed_mm_s"), "speed_mm_s", "mm/s", SPEED_RANGE_MM_S
+        _number(values["speed_mm_s"], "speed_mm_s"), "speed_mm_s", "mm/s", PHYSICAL_SPEED_RANGE_MM_S
     )
     trial = _integer(values["trial"], "trial", 2**31 - 1) if "trial" in values else None
     seed = _integer(values["seed"], "seed", 2**63 - 1) if "seed" in values else None

@@ -25,15 +25,23 @@ from .trial import CLASS_NAMES, TrialSpec
 NOMINAL_FORCE_N: float = 1.0
 NOMINAL_SPEED_MM_S: float = 10.0
 
-#: Physical range of the finger's normal force. People exploring a surface with a
-#: fingertip press with about 0.5-0.6 N (Smith et al., Exp. Brain Res. 2002); 10 N is
-#: over ten times that, where a fingertip pad is pressed flat against the bone, and below
-#: 0.01 N (one gram-force) a finger barely rests on the surface.
-FORCE_RANGE_N: tuple[float, float] = (0.01, 10.0)
-#: Physical range of the sliding speed. People scan a surface at about 80 mm/s (same
-#: study); 500 mm/s is six times that. At 0.1 mm/s the 2 s window slides 0.2 mm, less
-#: than one fingerprint ridge, so nothing below it can be felt as sliding.
-SPEED_RANGE_MM_S: tuple[float, float] = (0.1, 500.0)
+#: Normal forces the simulated finger reproduces for every shape and material at the
+#: presets' speeds (6-14 mm/s). Below 0.4 N the pad skips off the outlines' edges and
+#: loses contact; above 3 N the front PVDF film saturates the +-10 V DAQ on the moon
+#: and the finger sticks on some outlines. People exploring a surface press with about
+#: 0.5-0.6 N (Smith et al., Exp. Brain Res. 2002), inside this range.
+FORCE_RANGE_N: tuple[float, float] = (0.4, 3.0)
+#: Sliding speeds the simulator accepts. Above 24 mm/s the slide a trial needs (the
+#: approach, the outline and the 2 s window) runs off the 60 mm plate. At 0.1 mm/s the
+#: 2 s window slides 0.2 mm, less than one fingerprint ridge, so nothing below it can be
+#: felt as sliding.
+SPEED_RANGE_MM_S: tuple[float, float] = (0.1, 24.0)
+#: Physical range of a real fingertip's normal force and sliding speed, which imported
+#: recordings must lie in: 10 N presses a fingertip pad flat against the bone, below
+#: 0.01 N (one gram-force) a finger barely rests on the surface; people scan a surface at
+#: about 80 mm/s (Smith et al.), and 500 mm/s is six times that.
+PHYSICAL_FORCE_RANGE_N: tuple[float, float] = (0.01, 10.0)
+PHYSICAL_SPEED_RANGE_MM_S: tuple[float, float] = (0.1, 500.0)
 #: Most trials one dataset may hold. A store takes ~10 kB per trial on disk and its plan
 #: ~40 bytes per trial in memory, and ``trial_index`` is int32: ten million trials is
 #: ~100 GB and days of simulation, far beyond any use of this benchmark (the paper's
@@ -64,12 +72,24 @@ def _numbers(arg: str, values: object, unit: str, bounds: tuple[float, float]) -
     for v in out:
         if not lo <= v <= hi:
             raise ValueError(
-                f"{arg} must lie in {lo:g}..{hi:g} {unit} (the physical range of a fingertip "
-                f"sliding over a surface); got {v:g}"
+                f"{arg} must lie in {lo:g}..{hi:g} {unit} (the range the simulator reproduces for "
+                f"every shape and material; docs/datasets.md, Bounds); got {v:g}"
             )
     if len(set(out)) != len(out):
         raise ValueError(f"{arg} lists a value twice; got {list(values)!r}")
     return out
+
+
+def check_forces(arg: str, values: object) -> tuple[float, ...]:
+    """``values`` as floats if each is a normal force the simulator reproduces
+    (:data:`FORCE_RANGE_N`); else ``ValueError`` naming ``arg``."""
+    return _numbers(arg, values, "N", FORCE_RANGE_N)
+
+
+def check_speeds(arg: str, values: object) -> tuple[float, ...]:
+    """``values`` as floats if each is a sliding speed the simulator accepts
+    (:data:`SPEED_RANGE_MM_S`); else ``ValueError`` naming ``arg``."""
+    return _numbers(arg, values, "mm/s", SPEED_RANGE_MM_S)
 
 
 _CONDITION = re.compile(r"force=([0-9.eE+-]+)N,speed=([0-9.eE+-]+)mm/s")
@@ -115,8 +135,8 @@ class GenerationConfig:
         object.__setattr__(self, "shapes", _names("shapes", self.shapes, SHAPE_NAMES))
         object.__setattr__(self, "materials", _names("materials", self.materials, MATERIAL_NAMES))
         check_int("trials_per_class", self.trials_per_class, minimum=1)
-        forces = _numbers("forces_n", self.forces_n, "N", FORCE_RANGE_N)
-        speeds = _numbers("speeds_mm_s", self.speeds_mm_s, "mm/s", SPEED_RANGE_MM_S)
+        forces = check_forces("forces_n", self.forces_n)
+        speeds = check_speeds("speeds_mm_s", self.speeds_mm_s)
         object.__setattr__(self, "forces_n", forces)
         object.__setattr__(self, "speeds_mm_s", speeds)
         if not isinstance(self.include_nominal, bool):

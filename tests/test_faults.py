@@ -328,7 +328,7 @@ def test_overwrite_failing_halfway_keeps_the_old_dataset(complete, capsys):
 def test_overwrite_refused_by_the_real_simulator_keeps_the_old_dataset(
     complete, capsys, monkeypatch
 ):
-    """--speed 30 would slide off the plate: refused while planning, before any change."""
+    """--speed 30 would slide off the plate: refused before any change."""
     monkeypatch.undo()  # the real simulator and its configuration
     out, before = complete
     code, _, err = cli(
@@ -336,7 +336,7 @@ def test_overwrite_refused_by_the_real_simulator_keeps_the_old_dataset(
          "--trials-per-class", "1", "--speed", "30", "--overwrite"],
         capsys,
     )  # fmt: skip
-    assert code == 2 and "speed_mm_s=30" in one_line(err) and "plate" in err
+    assert code == 2 and "--speed must lie in 0.1..24 mm/s" in one_line(err)
     assert files(out) == before
 
 
@@ -459,11 +459,13 @@ def test_swapped_nominal_and_perturbation_datasets_are_refused(tmp_path, capsys)
 @pytest.mark.parametrize(
     "args, expect",
     [
-        (["--trials-per-class", "99999999999"], "at most 10,000,000 trials"),
-        (["--force", "1e9"], "forces_n must lie in 0.01..10 N"),
-        (["--speed", "0"], "speeds_mm_s must be > 0"),
-        (["--speed", "1e6"], "speeds_mm_s must lie in 0.1..500 mm/s"),
-        (["--chunk-trials", "1000000000"], "chunk_trials must be at most 4096"),
+        (["--trials-per-class", "99999999999"], "at most 10,000,000 trials: lower --trials-per"),
+        (["--force", "1e9"], "--force must lie in 0.4..3 N"),
+        (["--force", "0.01"], "--force must lie in 0.4..3 N"),  # the pad loses contact
+        (["--force", "5"], "--force must lie in 0.4..3 N"),  # the ADC saturates, the pad sticks
+        (["--speed", "0"], "--speed must be > 0"),
+        (["--speed", "25"], "--speed must lie in 0.1..24 mm/s"),  # the slide leaves the plate
+        (["--chunk-trials", "1000000000"], "--chunk-trials must be at most 4096"),
         (["--workers", "1000000"], "--workers 1000000"),
         (["--threads", "1000000"], "--threads 1000000"),
     ],
