@@ -49,10 +49,51 @@ def mujoco_simulator(
     specs: Sequence[TrialSpec], synth: Mapping[str, Any], threads: int
 ) -> np.ndarray:
     """The real simulator: ``synth.simulate_batch`` stacked to float32 ``(b, 4, T)``."""
-    from . import SynthConfig, simulate_batch
+    from . import SynthConfig
 
-    trials = simulate_batch(specs, config=SynthConfig.from_dict(dict(synth)), threads=threads)
+    trials = simulate_trials(specs, SynthConfig.from_dict(dict(synth)), threads)
     return np.stack([t.signals for t in trials]).astype(np.float32, copy=False)
+
+
+def quiet_mujoco_warnings() -> None:
+    """Keep MuJoCo's warning text out of stderr and out of a ``MUJOCO_LOG.TXT`` in the
+    working directory (its default handler writes both). The simulator reads the warning
+    counters, which MuJoCo keeps either way, and raises a ``SimulationError`` naming the
+    warning and the trial."""
+    import mujoco
+
+    if mujoco.get_mju_user_warning() is None:
+        mujoco.set_mju_user_warning(_drop_warning)
+
+
+def _drop_warning(message: str) -> None:
+    """A MuJoCo warning handler that drops the text (the counters report the warning)."""
+
+
+def simulate_trials(specs: Sequence[TrialSpec], config: Any, threads: int) -> list[Any]:
+    """``synth.simulate_batch``, with a saturated ADC reported as the physics failure it is:
+    a :class:`synth.SimulationError` naming the trial's shape, material, force, speed and
+    seed (the sensor chain only knows the trial's place in its batch)."""
+    from .sensors import SaturationError
+    from .simulator import SimulationError, simulate_batch
+
+    quiet_mujoco_warnings()
+    try:
+        return simulate_batch(specs, config=config, threads=threads)
+    except SaturationError as exc:
+        culprit = specs[0]
+        if len(specs) > 1:  # find the trial: each one's signals do not depend on the batch
+            for spec in specs:
+                try:
+                    simulate_batch([spec], config=config, threads=threads)
+                except SaturationError:
+                    culprit = spec
+                    break
+        reason = str(exc).split(" in trial ")[0]
+        raise SimulationError(
+            f"{reason} while simulating shape={culprit.shape!r}, material={culprit.material!r}, "
+            f"force_n={culprit.force_n}, speed_mm_s={culprit.speed_mm_s}, seed={culprit.seed}"
+        ) from None
 
 
 def default_synth_config() -> dict[str, Any]:

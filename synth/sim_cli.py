@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from pathlib import Path
 
 from shapes import SHAPE_NAMES
 
@@ -35,15 +36,35 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(handler=_view)
 
 
+def check_trial_args(args: argparse.Namespace) -> None:
+    """The checks ``generate`` applies to a grid, on one trial's options, before anything is
+    simulated: names, the force and speed bounds, a seed >= 0 and a slide on the plate."""
+    from shapes.validation import check_choice, check_int
+
+    from .presets import check_forces, check_speeds
+    from .simulator import check_grid
+
+    check_choice("--shape", args.shape, SHAPE_NAMES)
+    check_choice("--material", args.material, MATERIAL_NAMES)
+    (force,) = check_forces("--force", [args.force])
+    (speed,) = check_speeds("--speed", [args.speed])
+    check_int("--seed", args.seed, minimum=0)
+    check_grid([args.shape], [(force, speed)], args.material)
+
+
 def _plot_trial(args: argparse.Namespace) -> int:
-    from .simulator import simulate
+    from .config import SynthConfig
+    from .generation import simulate_trials
     from .store import check_not_inside_a_store
+    from .trial import TrialSpec
     from .trial_plot import plot_trial
 
     check_not_inside_a_store(args.out)  # before simulating
-    trial = simulate(
-        args.shape, args.material, force_n=args.force, speed_mm_s=args.speed, seed=args.seed
-    )
+    if Path(args.out).suffix.lower() != ".png":
+        raise ValueError(f"--out {args.out} must end in .png (plot-trial writes a PNG)")
+    check_trial_args(args)
+    spec = TrialSpec(args.shape, args.material, args.force, args.speed, args.seed)
+    (trial,) = simulate_trials([spec], SynthConfig(), threads=1)
     out = plot_trial(trial, args.out)
     truth = trial.truth
     print(
@@ -82,6 +103,7 @@ def _view(args: argparse.Namespace) -> int:
 
     from .trial import TrialSpec
 
+    check_trial_args(args)
     spec = TrialSpec(args.shape, args.material, args.force, args.speed, args.seed)
     model, qpos, specimen_z = replay(spec, _config())
     data = mujoco.MjData(model)

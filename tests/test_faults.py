@@ -522,6 +522,27 @@ def test_physics_failure_is_one_line_and_leaves_the_store_resumable(tmp_path, ca
     assert data_files(out) == reference  # the same bytes as an uninterrupted run
 
 
+def test_a_saturated_adc_is_a_physics_failure_naming_the_trial(monkeypatch):
+    """The sensor chain knows only a trial's place in its batch; generate names the trial."""
+    import synth.simulator
+    from synth.sensors import SaturationError
+    from synth.trial import TrialSpec
+
+    def saturating(specs, config, threads):
+        if any(s.seed == 7 for s in specs):
+            raise SaturationError("ADC saturated (10.50 V beyond +-10.0 V) in trial 1 of the batch")
+        return []
+
+    monkeypatch.setattr(synth.simulator, "simulate_batch", saturating)
+    specs = [TrialSpec("moon", "resin", force_n=2.5, speed_mm_s=14.0, seed=k) for k in (6, 7)]
+    with pytest.raises(SimulationError) as caught:
+        generation.simulate_trials(specs, config=None, threads=1)
+    assert str(caught.value) == (
+        "ADC saturated (10.50 V beyond +-10.0 V) while simulating shape='moon', "
+        "material='resin', force_n=2.5, speed_mm_s=14.0, seed=7"
+    )
+
+
 # -- 9. one line at the CLI boundary --------------------------------------------------------
 def test_cli_errors_are_one_line_naming_the_path(tmp_path, capsys, monkeypatch):
     a_file = tmp_path / "file"
