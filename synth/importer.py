@@ -65,6 +65,14 @@ RECORDING_SUFFIXES: tuple[str, ...] = (".csv", ".npz")
 #: Highest sample rate accepted: twice the 500 kS/s per channel of the paper's DAQ
 #: (NI USB-6346); a larger value is a unit mistake (e.g. samples per minute).
 MAX_SAMPLE_RATE_HZ: float = 1e6
+#: Lowest sample rate accepted: a 2 s window at 10 Hz holds 20 samples, too few to show
+#: a slide; a smaller value is a unit mistake (e.g. kHz for Hz).
+MIN_SAMPLE_RATE_HZ: float = 10.0
+#: Longest recording accepted, in seconds at SAMPLE_RATE_HZ (checked before resampling):
+#: an hour is far beyond one slide and its four channels stay near 100 MB in memory.
+MAX_RECORDING_S: float = 3600.0
+#: Largest magnitude of a sample: the store holds float32 volts.
+MAX_SAMPLE_V: float = float(np.finfo(np.float32).max)
 #: Two statements of one recording's sample rate (the labels table, the file, the time
 #: column, --sample-rate) must agree this closely (relative): 0.5 % of the 2 s window is
 #: 10 ms, 0.1 mm of sliding at 10 mm/s, a fifth of the 0.5 mm fingerprint ridge period.
@@ -338,6 +346,10 @@ def _check_rate(rate: float, what: str) -> float:
         raise _Bad(
             f"{what} {rate:g} Hz is above {MAX_SAMPLE_RATE_HZ:g} Hz (is it in another unit?)"
         )
+    if rate < MIN_SAMPLE_RATE_HZ:
+        raise _Bad(
+            f"{what} {rate:g} Hz is below {MIN_SAMPLE_RATE_HZ:g} Hz (is it in another unit?)"
+        )
     return rate
 
 
@@ -413,6 +425,14 @@ def _read_csv(data: bytes, shown: str) -> Recording:
         raise _Bad(
             f"{shown} line {r + 2}, column {names[c]}: {values[r, c]} (every sample must be "
             f"a finite number)"
+        )
+    channel = np.array([n in CHANNELS for n in names])
+    huge = np.argwhere((np.abs(values) > MAX_SAMPLE_V) & channel)
+    if huge.size:
+        r, c = (int(v) for v in huge[0])
+        raise _Bad(
+            f"{shown} line {r + 2}, column {names[c]}: {values[r, c]:g} V is beyond the "
+            f"+-{MAX_SAMPLE_V:.3g} V a float32 sample holds"
         )
     signals = values[:, [names.index(ch) for ch in CHANNELS]].T.copy()
     times = values[:, names.index(TIME_COLUMN)] if TIME_COLUMN in names else None
@@ -501,6 +521,13 @@ def _read_npz(data: bytes, shown: str) -> Recording:
             f"{shown}: channel {CHANNELS[c]} at sample index {i} is {signals[c, i]} (every "
             f"sample must be a finite number)"
         )
+    huge = np.argwhere(np.abs(signals) > MAX_SAMPLE_V)
+    if huge.size:
+        c, i = (int(v) for v in huge[0])
+        raise _Bad(
+            f"{shown}: channel {CHANNELS[c]} at sample index {i} is {signals[c, i]:g} V, beyond "
+            f"the +-{MAX_SAMPLE_V:.3g} V a float32 sample holds"
+        )
     rate = None
     if "sample_rate_hz" in arrays:
         r = arrays["sample_rate_hz"]
@@ -580,6 +607,17 @@ def resampling_ratio(rate_hz: float) -> tuple[int, int]:
     (denominator at most :data:`MAX_RATIO_DENOMINATOR`)."""
     ratio = (Fraction(SAMPLE_RATE_HZ) / Fraction(rate_hz)).limit_denominator(MAX_RATIO_DENOMINATOR)
     return ratio.numerator, ratio.denominator
+
+
+def check_duration(samples: int, rate_hz: float, shown: str) -> None:
+    """Refuse, before resampling allocates it, a recording longer than
+    :data:`MAX_RECORDING_S` (a rate in the wrong unit makes a short file hours long)."""
+    seconds = samples / rate_hz
+    if seconds > MAX_RECORDING_S:
+        raise _Bad(
+            f"{shown}: {samples} samples at {rate_hz:g} Hz last {seconds:,.0f} s; a recording "
+            f"may last at most {MAX_RECORDING_S:,.0f} s (is the sample rate in another unit?)"
+        )
 
 
 def to_daq_rate(signals: np.ndarray, rate_hz: float) -> np.ndarray:
@@ -949,6 +987,7 @@ def _build(
                 try:
                     rec, sha = read_recording(row.path, shown)
                     rate = sample_rate(row, rec, options["sample_rate_hz"], shown)
+                    check_duration(rec.signals.shape[1], rate, shown)
                     x = to_daq_rate(rec.signals, rate)
                     start = row.window_start_s
                     if start is None:

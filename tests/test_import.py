@@ -361,6 +361,34 @@ def _npz_inf(d):
     (d / "labels.csv").write_text(labels)
 
 
+def _beyond_float32(d):
+    x = class_signal("circle", "resin", 1, 1000.0)
+    x[1, 40] = 1e300  # finite in float64, inf in the store's float32
+    write_csv(d / "t1.csv", x)
+
+
+def _npz_beyond_float32(d):
+    (d / "t1.csv").unlink()
+    x = class_signal("circle", "resin", 1, 1000.0)
+    x[3, 9] = -1e39
+    np.savez(d / "t1.npz", signals=x, sample_rate_hz=1000.0)
+    labels = (d / "labels.csv").read_text().replace("t1.csv", "t1.npz")
+    (d / "labels.csv").write_text(labels)
+
+
+def _npz_rate_in_khz(d):
+    """A rate of 1e-3 Hz would resample 2000 samples to two thousand million."""
+    (d / "t1.csv").unlink()
+    np.savez(d / "t1.npz", signals=class_signal("circle", "resin", 1, 1000.0), sample_rate_hz=1e-3)
+    labels = (d / "labels.csv").read_text().replace("t1.csv", "t1.npz")
+    (d / "labels.csv").write_text(labels)
+
+
+def _slow_time_column(d):
+    x = class_signal("circle", "resin", 1, 1000.0)
+    write_csv(d / "t1.csv", x, header=("time_s", *CHANNELS), time_s=np.arange(x.shape[1]) * 5.0)
+
+
 def _replace_in_labels(line: int, old: str, new: str):
     def edit(d):
         lines = (d / "labels.csv").read_text().splitlines()
@@ -401,6 +429,15 @@ BAD_CASES = {
     "too short": (_too_short, ["t1.csv is 1.500 s long", "window of 2 s"]),
     "NPZ channel count": (_npz_channels, ["t1.npz holds 3 of the 4 channel arrays"]),
     "NPZ inf sample": (_npz_inf, ["t1.npz: channel pvdf1 at sample index 5 is inf"]),
+    "sample beyond float32": (_beyond_float32, ["t1.csv line 42, column pvdf2: 1e+300 V"]),
+    "NPZ sample beyond float32": (
+        _npz_beyond_float32,
+        ["t1.npz: channel sg2 at sample index 9 is -1e+39 V"],
+    ),
+    "NPZ rate in another unit": (
+        _npz_rate_in_khz,
+        ["t1.npz: array 'sample_rate_hz' 0.001 Hz is below 10 Hz"],
+    ),
     "unknown label column": (
         _replace_in_labels(1, "material", "materal"),
         ["labels.csv line 1: column must be one of", "did you mean 'material'"],
@@ -422,6 +459,18 @@ BAD_CASES = {
     "same recording twice": (_same_content, ["t2.csv (labels line 4) holds the same window"]),
     "time column gap": (_time_gap, ["t1.csv line 702: time_s steps by 0.004 s"]),
 }
+
+
+def test_a_recording_hours_long_is_refused_before_resampling(tmp_path, capsys):
+    recs = tmp_path / "recs"
+    small(recs, n=1)
+    _slow_time_column(recs)  # the time column in another unit: 2000 samples, 10,000 s
+    (recs / "t1.csv").rename(recs / "t0.csv")
+    rc = main(["import", str(recs), "--out", str(tmp_path / "data")])
+    err = capsys.readouterr().err
+    assert rc == 2 and len(err.strip().splitlines()) == 1
+    assert "t0.csv: 2000 samples at 0.2 Hz last 10,000 s" in err
+    assert not (tmp_path / "data").exists()
 
 
 @pytest.mark.parametrize("case", list(BAD_CASES))
