@@ -30,6 +30,7 @@ def plot_examples(path: str | Path, out: str | Path) -> Path:
     problems += st.check_plan()
     if problems:
         raise store.DatasetDamaged(st.path, problems)
+    st.check_complete(done)  # an unfinished class would be a blank panel
     n, c = st.n_trials, st.chunk_trials
     finished = np.zeros(n, dtype=bool)
     for k in np.flatnonzero(done):

@@ -733,6 +733,15 @@ class Store:
             return self.config.materials
         return tuple(self.meta["materials"])
 
+    def check_complete(self, done: np.ndarray) -> None:
+        """``DatasetError`` saying how to finish the store unless every chunk is ``done``
+        (for commands that need every trial: ``plot``, ``export``)."""
+        if not done.all():
+            raise DatasetError(
+                f"dataset {self.path} is incomplete ({int(done.sum())}/{done.size} chunks done)",
+                self.finish_advice(),
+            )
+
     def finish_advice(self) -> str:
         """How to complete this store when chunks are not done."""
         if self.imported:

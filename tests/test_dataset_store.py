@@ -186,6 +186,21 @@ def test_interrupted_run_resumes_without_recomputing(tmp_path):
     np.testing.assert_array_equal(done.seed, ref.seed)
 
 
+def test_plot_refuses_an_incomplete_dataset_naming_the_fix(tmp_path):
+    from synth.plot import plot_examples
+
+    out = tmp_path / "ds"
+    with pytest.raises(OSError, match="No space"):
+        run(tiny(), out, FakeSimulator(fail_after_chunks=1))
+    with pytest.raises(ValueError) as caught:
+        plot_examples(out, tmp_path / "ex.png")
+    assert str(caught.value) == (
+        f"dataset {out} is incomplete (1/3 chunks done); finish it with "
+        f"`tactile-synth generate --resume --out {out}`"
+    )
+    assert not (tmp_path / "ex.png").exists()
+
+
 def test_lock_is_exclusive_and_released(tmp_path):
     target = tmp_path / "ds"
     with atomic.PathLock(target):
