@@ -16,13 +16,20 @@ EXPORT_FORMATS: tuple[str, ...] = ("npz", "csv")
 
 
 def _target(path: Path, out: str | Path | None, fmt: str, overwrite: bool) -> Path:
+    """The file to write, checked (nothing is created here)."""
     target = Path(out) if out is not None else path.with_suffix(f".{fmt}")
     if target.is_dir():
-        raise IsADirectoryError(f"--out {target} is a directory; give a file name")
+        raise ValueError(f"--out {target} is a directory; give a file name")
+    suffix = target.suffix.lower().lstrip(".")
+    if suffix in EXPORT_FORMATS and suffix != fmt:
+        # An .npz holding CSV text (or the reverse) would mislead every reader of it.
+        raise ValueError(
+            f"--out {target} ends in .{suffix} but --format is {fmt}; end it in .{fmt} or "
+            f"pass --format {suffix}"
+        )
     store.check_not_inside_a_store(target)  # a file there would sit among its arrays
     if target.exists() and not overwrite:
         raise FileExistsError(f"{target} exists; pass --overwrite to replace it or choose --out")
-    target.parent.mkdir(parents=True, exist_ok=True)
     return target
 
 
@@ -40,10 +47,14 @@ def export(
     """
     path = Path(path)
     check_choice("format", fmt, EXPORT_FORMATS)
-    data = store.load_dataset(path)  # refuses incomplete or damaged stores
-    st = store.Store.open(path)
-    meta = st.meta
     target = _target(path, out, fmt, overwrite)
+    st = store.Store.open(path)
+    done, problems = st.status()
+    if not problems:  # load_dataset names the damage
+        st.check_complete(done)
+    data = store.load_dataset(path)  # checks every chunk
+    meta = st.meta
+    target.parent.mkdir(parents=True, exist_ok=True)
     tmp = target.with_name(target.name + ".partial")
     try:
         if fmt == "npz":

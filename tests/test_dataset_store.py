@@ -314,6 +314,28 @@ def test_export_npz_and_csv(tmp_path):
     assert (out / "zarr.json").read_bytes() == meta and not (out / "x.csv").exists()
 
 
+def test_export_refusals_name_the_cli_options_and_write_nothing(tmp_path, capsys):
+    from benchmark.cli import main
+
+    out = run(tiny(), tmp_path / "ds")
+    (tmp_path / "dir").mkdir()
+    cases = [
+        (["--format", "csv", "--out", tmp_path / "x.npz"], "--out", "ends in .npz but --format"),
+        (["--format", "npz", "--out", tmp_path / "dir"], "--out", "is a directory"),
+    ]
+    for args, *words in cases:
+        assert main(["export", str(out), *map(str, args)]) == 2
+        err = capsys.readouterr().err
+        assert all(w in err for w in words) and len(err.strip().splitlines()) == 1, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["dir", "ds"]
+    partial = tmp_path / "partial"
+    with pytest.raises(OSError, match="No space"):
+        run(tiny(), partial, FakeSimulator(fail_after_chunks=1))
+    assert main(["export", str(partial), "--format", "npz"]) == 2
+    err = capsys.readouterr().err
+    assert f"generate --resume --out {partial}`" in err and "allow_incomplete" not in err
+
+
 def test_inspect_and_plot(tmp_path):
     out = run(tiny(), tmp_path / "ds")
     text = summarize(out)
