@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 from shapes.dims import SPECIMEN, SpecimenDims
+from shapes.files import new_temp_file
 from shapes.outlines import check_shape
 from shapes.validation import check_choice
 
@@ -36,8 +36,7 @@ def export(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     path = out / f"{name}.{fmt}"
-    fd, tmp = tempfile.mkstemp(prefix=f".{name}.", suffix=f".{fmt}", dir=out)
-    os.close(fd)
+    tmp = str(new_temp_file(out, f".{name}.", f".{fmt}"))
     try:
         if fmt == "step":
             from shapes.cad import export_step

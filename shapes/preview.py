@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from shapes.dims import SPECIMEN, SpecimenDims
+from shapes.files import new_temp_file
 from shapes.outlines import SHAPE_NAMES, outline
 from shapes.partition import convex_partition
 
@@ -54,8 +54,7 @@ def preview(out: str | os.PathLike, *, dims: SpecimenDims = SPECIMEN, dpi: int =
     )
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".png", dir=path.parent)
-    os.close(fd)
+    tmp = new_temp_file(path.parent, f".{path.stem}.", ".png")
     try:
         fig.savefig(tmp, dpi=dpi)
         os.replace(tmp, path)

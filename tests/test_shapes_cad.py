@@ -199,6 +199,18 @@ def test_export_mesh_formats_load_back(cold_cache, cache_env, tmp_path, fmt):
     assert trimesh.load(mm, force="mesh").volume == pytest.approx(back.volume * 1e9, rel=1e-5)
 
 
+def test_exported_and_previewed_files_get_the_umasks_mode(cold_cache, cache_env, tmp_path):
+    from shapes.export import export
+    from shapes.preview import preview
+
+    old = os.umask(0o022)
+    try:
+        written = [export("moon", tmp_path, "stl"), preview(tmp_path / "p.png")]
+    finally:
+        os.umask(old)
+    assert [p.stat().st_mode & 0o777 for p in written] == [0o644, 0o644]
+
+
 def test_export_step_and_bad_arguments(tmp_path):
     from shapes.export import export
 
