@@ -24,6 +24,8 @@ def plot_examples(path: str | Path, out: str | Path) -> Path:
     """Draw one trial per class of the store at ``path`` (rows: shapes, columns:
     materials), as :func:`plot_example_grid`. Returns ``out``."""
     store.check_not_inside_a_store(out)
+    if Path(out).suffix.lower() != ".png":  # matplotlib would add one or write another format
+        raise ValueError(f"--out {out} must end in .png (plot writes a PNG)")
     st = store.Store.open(path)
     meta = st.meta
     done, problems = st.status()

@@ -352,3 +352,7 @@ def test_inspect_and_plot(tmp_path):
     with pytest.raises(ValueError, match=rf"^--out {chunk} lies inside the dataset {out};"):
         plot_examples(out, chunk)
     assert chunk.read_bytes() == before
+    for other in ("noext", "ex.pdf"):  # matplotlib would write noext.png, or a PDF
+        with pytest.raises(ValueError, match=rf"^--out {tmp_path / other} must end in \.png"):
+            plot_examples(out, tmp_path / other)
+        assert not list(tmp_path.glob(f"{other}*"))
