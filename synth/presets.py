@@ -243,12 +243,20 @@ def preset(name: str) -> GenerationConfig:
 def load_toml(path: str | Path) -> GenerationConfig:
     """A grid from a TOML file: an optional ``preset = "..."`` base plus any config keys."""
     path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"--config {path} is a directory; give a TOML file")
     if not path.is_file():
-        raise FileNotFoundError(f"config file {path} does not exist")
+        raise FileNotFoundError(f"--config {path} does not exist")
     try:
         data = tomllib.loads(path.read_text())
     except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"config file {path} is not valid TOML: {exc}") from None
+        raise ValueError(f"--config {path} is not valid TOML: {exc}") from None
+    if not data:
+        # An empty file would silently stand for the whole paper grid.
+        raise ValueError(
+            f'--config {path} sets nothing; give the grid\'s keys (e.g. preset = "quick") '
+            f"or use --preset"
+        )
     base = preset(data["preset"]) if "preset" in data else GenerationConfig()
     merged = {**base.to_dict(), **data}
     return GenerationConfig.from_dict(merged)

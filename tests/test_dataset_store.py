@@ -101,6 +101,11 @@ def test_toml_grid(tmp_path):
     path.write_text("shapes = [")
     with pytest.raises(ValueError, match="not valid TOML"):
         load_toml(path)
+    path.write_text("# nothing set\n")  # would run the whole paper grid
+    with pytest.raises(ValueError, match=rf"^--config {path} sets nothing"):
+        load_toml(path)
+    with pytest.raises(ValueError, match=rf"^--config {tmp_path} is a directory"):
+        load_toml(tmp_path)
 
 
 def test_seeds_do_not_depend_on_the_rest_of_the_grid():
