@@ -788,3 +788,27 @@ def test_output_set_is_replaced_whole_and_state_is_kept(tmp_path):
         (tmp / "results.json").write_text("[3]")
     assert list((out / "checkpoints").iterdir()) == []
     assert (out / "data" / "keep.txt").read_text() == "dataset"
+
+
+def test_ctrl_c_while_the_cli_loads_is_one_line(monkeypatch, capsys):
+    """An interrupt during the imports that precede the command's own error boundary
+    ends the console script with one line and status 130, not a traceback."""
+    import importlib.abc
+
+    from tactile_synth import entry
+
+    class Interrupting(importlib.abc.MetaPathFinder):
+        def find_spec(self, name, path=None, target=None):
+            if name == "benchmark.cli":
+                raise KeyboardInterrupt
+            return None
+
+    monkeypatch.delitem(sys.modules, "benchmark.cli")
+    monkeypatch.setattr(sys, "meta_path", [Interrupting(), *sys.meta_path])
+    assert entry.main() == 130
+    assert capsys.readouterr().err == "tactile-synth: interrupted\n"
+
+
+def test_the_console_script_is_the_interrupt_safe_entry():
+    text = (ROOT / "pyproject.toml").read_text()
+    assert 'tactile-synth = "tactile_synth.entry:main"' in text
