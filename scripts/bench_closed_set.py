@@ -22,27 +22,36 @@ import time
 from pathlib import Path
 
 import torch
+from script_args import check_methods, description, fail, load_data
 
 from benchmark import protocols
+from benchmark.protocols.closed_set import columns_for, split_halves
 from models.features import extract
 from models.registry import METHOD_NAMES
-from synth import load_dataset
 
 TARGET_EPISODES = 500
 TARGET_S = 20 * 60
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=description(__doc__))
     parser.add_argument("--data", required=True)
     parser.add_argument("--methods", nargs="+", default=list(METHOD_NAMES))
     parser.add_argument("--episodes", type=int, default=TARGET_EPISODES)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if not 1 <= args.episodes <= TARGET_EPISODES:
-        raise SystemExit(f"--episodes must be in 1..{TARGET_EPISODES}; got {args.episodes}")
-    data = load_dataset(args.data)
+        fail(parser, f"--episodes must be in 1..{TARGET_EPISODES}; got {args.episodes}")
+    methods = check_methods(parser, args.methods)
+    data = load_data(parser, args.data)
+    _, test = split_halves(data.label, seed=args.seed)
+    if not columns_for(data.label[test]):
+        fail(
+            parser,
+            f"--data {args.data} is too small: its test half holds no Table I column "
+            "(each needs at least 5 classes with 2 test trials)",
+        )
     t0 = time.perf_counter()
     feats = extract(data.signals)
     feat_s = time.perf_counter() - t0
@@ -53,7 +62,7 @@ def main() -> None:
     )
     print(f"{'method':16s} {'pretrain s':>10s} {'eval s':>8s} {'total s':>8s} {'at 500 eps':>10s}")
     rows = []
-    for name in args.methods:
+    for name in methods:
         t0 = time.perf_counter()
         records = protocols.run(
             "closed-set",

@@ -28,9 +28,9 @@ import argparse  # noqa: E402
 import time  # noqa: E402
 
 import numpy as np  # noqa: E402
+from script_args import description, fail, load_data  # noqa: E402
 
 from models.features import CHANNELS, FEATURE_NAMES, extract  # noqa: E402
-from synth import load_dataset  # noqa: E402
 
 #: tsfresh calculators with a counterpart in our time-domain statistics (25 per channel).
 TSFRESH_PARAMS: dict = {
@@ -97,15 +97,15 @@ def bench_tsfresh(signals: np.ndarray) -> tuple[float, int]:
     return wall, out.shape[1]
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=description(__doc__))
     parser.add_argument("--data", required=True, help="a dataset (e.g. the paper preset)")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--tsfresh-trials", type=int, default=216)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if args.repeats < 1 or args.tsfresh_trials < 1:
-        raise SystemExit("--repeats and --tsfresh-trials must be >= 1")
-    data = load_dataset(args.data)
+        fail(parser, "--repeats and --tsfresh-trials must be >= 1")
+    data = load_data(parser, args.data)
     sig = data.signals
     n = len(sig)
     ours = bench_ours(sig, args.repeats)

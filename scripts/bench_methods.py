@@ -17,13 +17,13 @@ import time
 
 import numpy as np
 import torch
+from script_args import check_methods, description, fail, load_data
 
 from benchmark.episodes import sample_episodes
 from benchmark.evaluate import evaluate
 from benchmark.protocols.closed_set import split_halves
 from models.features import extract
 from models.registry import METHOD_NAMES, make_method
-from synth import load_dataset
 
 #: Learned attributes that record what a method chose on its training split.
 CHOICES = (
@@ -42,24 +42,36 @@ CHOICES = (
 )
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=description(__doc__))
     parser.add_argument("--data", required=True)
     parser.add_argument("--methods", nargs="+", default=list(METHOD_NAMES))
     parser.add_argument("--episodes", type=int, default=500)
     parser.add_argument("--seed", type=int, default=0)
-    args = parser.parse_args()
-    data = load_dataset(args.data)
+    args = parser.parse_args(argv)
+    if args.episodes < 1:
+        fail(parser, f"--episodes must be >= 1; got {args.episodes}")
+    methods = check_methods(parser, args.methods)
+    data = load_data(parser, args.data)
+    train, test = split_halves(data.label, seed=args.seed)
+    # 5-way episodes of 5 supports and 5 queries per class, drawn from the test half.
+    per_class = np.unique(data.label[test], return_counts=True)[1]
+    if np.count_nonzero(per_class >= 10) < 5:
+        fail(
+            parser,
+            f"--data {args.data} is too small: 5-way 5-shot episodes with 5 queries need 10 "
+            f"trials per class in 5 classes of the test half (20 per class in the dataset); "
+            f"its test half has {per_class.min()}-{per_class.max()} per class",
+        )
     print(f"{len(data)} trials; torch threads {torch.get_num_threads()}")
     t0 = time.perf_counter()
     feats = extract(data.signals)
     print(f"feature pool: {time.perf_counter() - t0:.2f} s for {len(data)} trials")
-    train, test = split_halves(data.label, seed=args.seed)
     batch = sample_episodes(
         data.label[test], n_way=5, k_shot=5, n_query=5, episodes=args.episodes, seed=1
     )
     print(f"{'method':16s} {'pretrain s':>10s} {'adapt ms/ep':>12s} {'5w5s acc':>9s}")
-    for name in args.methods:
+    for name in methods:
         model = make_method(name, seed=args.seed)
         t0 = time.perf_counter()
         model.fit(data.signals[train], data.label[train], features=feats[train])

@@ -10,6 +10,8 @@ from __future__ import annotations
 import argparse
 import time
 
+from script_args import description, fail, load_data
+
 
 def best(fn, repeat: int) -> float:
     times = []
@@ -20,22 +22,24 @@ def best(fn, repeat: int) -> float:
     return min(times)
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     import zarr
 
     from synth import load_dataset
     from synth.presets import plan
     from synth.store import Store
 
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=description(__doc__))
     parser.add_argument("--data", required=True, help="a tactile-synth dataset (Zarr store)")
     parser.add_argument("--repeat", type=int, default=5, help="runs of each (best is kept)")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
+    if args.repeat < 1:
+        fail(parser, f"--repeat must be >= 1; got {args.repeat}")
 
     def raw() -> None:
         zarr.open_group(args.data, mode="r")["signals"][:]
 
-    data = load_dataset(args.data)  # also warms the page cache
+    data = load_data(parser, args.data)  # also warms the page cache
     config = Store.open(args.data).config
     t_raw = best(raw, args.repeat)
     t_load = best(lambda: load_dataset(args.data), args.repeat)

@@ -486,7 +486,7 @@ def evidence_markdown(meta: dict[str, Any], chosen: dict, steps: list[dict]) -> 
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--data", required=True, help="dataset (e.g. the paper preset)")
     parser.add_argument("--seed", type=int, default=0, help="closed-set split and episode seed")
     parser.add_argument("--episodes", type=int, default=200, help="episodes per column")

@@ -1,0 +1,86 @@
+"""The benchmark scripts in scripts/: a bad argument ends them with one line naming it and
+exit status 2, and ``--help`` shows a complete first sentence of what each measures."""
+
+from __future__ import annotations
+
+import importlib.util
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import synth.store
+from tests.synthetic_data import make_dataset
+
+ROOT = Path(__file__).resolve().parents[1]
+SCRIPTS = ROOT / "scripts"
+
+
+def _script(name: str, monkeypatch):
+    monkeypatch.syspath_prepend(str(SCRIPTS))  # the scripts import their shared helper
+    spec = importlib.util.spec_from_file_location(f"{name}_script", SCRIPTS / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _fails(main, argv, capsys) -> str:
+    with pytest.raises(SystemExit) as exit_info:
+        main(argv)
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    return err
+
+
+@pytest.mark.parametrize("name", ["bench_methods", "bench_closed_set", "bench_store"])
+def test_a_missing_dataset_is_one_line_naming_data(name, tmp_path, monkeypatch, capsys):
+    main = _script(name, monkeypatch).main
+    err = _fails(main, ["--data", str(tmp_path / "nope")], capsys)
+    assert f"error: --data {tmp_path / 'nope'}: dataset" in err
+
+
+def test_bench_features_names_data_for_a_missing_dataset(tmp_path):
+    # A child process: the script pins its process to one CPU when it loads.
+    proc = subprocess.run(
+        [sys.executable, str(SCRIPTS / "bench_features.py"), "--data", str(tmp_path / "nope")],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+    )
+    assert proc.returncode == 2
+    assert proc.stderr.startswith("bench_features.py: error: --data ")
+    assert proc.stderr.count("\n") == 1, proc.stderr
+
+
+@pytest.mark.parametrize("name", ["bench_methods", "bench_closed_set"])
+def test_an_unknown_method_is_one_line_naming_methods(name, tmp_path, monkeypatch, capsys):
+    main = _script(name, monkeypatch).main
+    err = _fails(main, ["--data", str(tmp_path), "--methods", "Bogus"], capsys)
+    assert "error: --methods must be one of" in err and "'Bogus'" in err
+
+
+@pytest.mark.parametrize(
+    ("name", "trials", "message"),
+    [
+        ("bench_methods", 4, "is too small: 5-way 5-shot episodes"),
+        ("bench_closed_set", 1, "is too small: its test half holds no Table I column"),
+    ],
+)
+def test_a_dataset_too_small_is_one_line_naming_data(name, trials, message, monkeypatch, capsys):
+    data = make_dataset(trials_per_class=trials, n_samples=64)
+    monkeypatch.setattr(synth.store, "load_dataset", lambda path: data)
+    main = _script(name, monkeypatch).main
+    err = _fails(main, ["--data", "small", "--methods", "AFOP-ML", "--episodes", "1"], capsys)
+    assert f"error: --data small {message}" in err
+
+
+@pytest.mark.parametrize("name", ["bench_methods", "bench_malloc", "bench_store", "tune"])
+def test_help_shows_the_whole_first_sentence(name, monkeypatch, capsys):
+    module = _script(name, monkeypatch)
+    with pytest.raises(SystemExit):
+        module.main(["--help"])
+    first = " ".join(module.__doc__.split("\n\n")[0].split())
+    assert first.endswith(".")
+    assert first in " ".join(capsys.readouterr().out.split())
