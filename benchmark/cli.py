@@ -78,7 +78,10 @@ def describe_error(exc: BaseException) -> tuple[str, int]:
     """
     from models.registry import PluginError
     from synth import SimulationError
+    from synth.store import DatasetIncomplete
 
+    if isinstance(exc, DatasetIncomplete):  # the CLI's way to finish it, not the API's
+        return exc.cli_message, 2
     if isinstance(exc, SimulationError):
         return f"the physics failed: {exc}", 1
     if isinstance(exc, PluginError):

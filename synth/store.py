@@ -109,6 +109,17 @@ class DatasetLocked(DatasetError):
         )
 
 
+class DatasetIncomplete(DatasetError):
+    """Not every chunk of the dataset is done. ``str()`` also offers the Python API's
+    ``allow_incomplete=True``; ``cli_message`` is the same advice without it, for
+    command-line users, who finish the store with ``fix`` instead."""
+
+    def __init__(self, problem: str, fix: str, api_fix: str = "") -> None:
+        self.cli_message = f"{problem}; {fix}"
+        super().__init__(problem, f"{fix}, or {api_fix}" if api_fix else fix)
+        self.fix = fix
+
+
 @dataclass(frozen=True)
 class Problem:
     """One damaged part of a store: ``what`` (e.g. ``"chunk 3"``, ``"label"``), the
@@ -737,7 +748,7 @@ class Store:
         """``DatasetError`` saying how to finish the store unless every chunk is ``done``
         (for commands that need every trial: ``plot``, ``export``)."""
         if not done.all():
-            raise DatasetError(
+            raise DatasetIncomplete(
                 f"dataset {self.path} is incomplete ({int(done.sum())}/{done.size} chunks done)",
                 self.finish_advice(),
             )
@@ -1046,9 +1057,10 @@ def load_dataset(path: str | Path, *, allow_incomplete: bool = False) -> Dataset
     path = store.path
     done, problems = store.status()
     if not done.all() and not allow_incomplete and not problems:
-        raise DatasetError(
+        raise DatasetIncomplete(
             f"dataset {path} is incomplete ({int(done.sum())}/{done.size} chunks done)",
-            f"{store.finish_advice()}, or load it with allow_incomplete=True",
+            store.finish_advice(),
+            "load it with allow_incomplete=True",
         )
     problems += store.check_plan()
     chunks, chunk_problems, whole = store._read_chunks(np.flatnonzero(done))

@@ -738,6 +738,24 @@ def test_benchmark_names_the_dataset_argument_that_does_not_exist(complete, caps
     assert not (tmp_path / "b").exists()
 
 
+def test_an_incomplete_dataset_is_finished_the_cli_way(complete, capsys, tmp_path):
+    out, _ = complete
+    part = tmp_path / "part"
+    with pytest.raises(OSError, match="No space"):
+        make(part, FakeSimulator(fail_at=1))
+    for args in (
+        ["benchmark", "closed-set", "--data", part, "--out", tmp_path / "b"],
+        ["run", "--data", part, "--perturbed", out, "--out", tmp_path / "r"],
+    ):
+        code, _, err = cli(args, capsys)
+        line = one_line(err)
+        assert code == 2 and "is incomplete (1/" in line
+        assert f"`tactile-synth generate --resume --out {part}`" in line
+        assert "allow_incomplete" not in line
+    with pytest.raises(ValueError, match="allow_incomplete=True"):  # the API keeps its hint
+        load_dataset(part)
+
+
 def test_failed_checks_leave_no_new_output_directory(complete, capsys, tmp_path):
     out, _ = complete
     pert = make(tmp_path / "pert", config=tiny(forces_n=(0.6,)))
