@@ -15,6 +15,7 @@ at a time may write an output directory (a lock beside it).
 from __future__ import annotations
 
 import datetime as _dt
+import errno
 import json
 import os
 import shutil
@@ -57,6 +58,7 @@ class OutputDir:
         inputs: Mapping[str, str | Path | None] | None = None,
     ) -> None:
         out = Path(out)
+        self.given = out  # as typed, for messages
         self.out = out.resolve() if out.is_symlink() else out
         self.overwrite = overwrite
         self.command = command
@@ -115,6 +117,8 @@ class OutputDir:
                 f"--out {self.out} is being written by {who} (another tactile-synth "
                 f"benchmark or run); wait for it to finish or choose another directory"
             ) from None
+        except OSError as exc:
+            raise self._not_writable(exc) from None
         try:
             self._recover()
             self._check()
@@ -127,11 +131,25 @@ class OutputDir:
             (self.out / "checkpoints").mkdir(exist_ok=True)
             self.tmp.mkdir()
             os.symlink(os.path.abspath(self.out / "checkpoints"), self.tmp / "checkpoints")
+        except OSError as exc:
+            self._lock.release()
+            self._remove_made()
+            raise self._not_writable(exc) from None
         except BaseException:
             self._lock.release()
             self._remove_made()
             raise
         return self.tmp
+
+    def _not_writable(self, exc: OSError) -> Exception:
+        """A read-only, forbidden or unusable ``--out`` is the user's input: a one-line
+        ``ValueError`` naming ``--out`` as given, not the hidden file that failed; other
+        errors (a full disk) pass unchanged."""
+        if exc.errno not in (errno.EROFS, errno.EACCES, errno.EPERM):
+            return exc
+        return ValueError(
+            f"--out {self.given} cannot be written ({exc.strerror}); choose another directory"
+        )
 
     def _drop_checkpoints(self) -> None:
         """``overwrite`` starts over: every protocol is computed again, none is taken

@@ -756,6 +756,23 @@ def test_an_incomplete_dataset_is_finished_the_cli_way(complete, capsys, tmp_pat
         load_dataset(part)
 
 
+def test_a_read_only_out_is_named_as_given(complete, capsys, tmp_path, monkeypatch):
+    import errno
+
+    from benchmark.outputs import OutputDir
+
+    def read_only(self, where):
+        raise OSError(errno.EROFS, "Read-only file system", str(where / "marker.tmp"))
+
+    monkeypatch.setattr(OutputDir, "_write_marker", read_only)
+    monkeypatch.chdir(tmp_path)
+    out, _ = complete
+    code, _, err = cli(["benchmark", "closed-set", "--data", out, "--out", "romnt"], capsys)
+    line = one_line(err)
+    assert code == 2 and "--out romnt cannot be written (Read-only file system)" in line
+    assert "marker.tmp" not in line and not (tmp_path / "romnt").exists()
+
+
 def test_failed_checks_leave_no_new_output_directory(complete, capsys, tmp_path):
     out, _ = complete
     pert = make(tmp_path / "pert", config=tiny(forces_n=(0.6,)))
