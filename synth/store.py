@@ -511,6 +511,7 @@ def _read_meta(path: Path) -> dict[str, Any]:
         raise NotADirectoryError(f"{path} is a file, not a dataset (a Zarr store directory)")
     meta_file = path / "zarr.json"
     if not meta_file.is_file():
+        _check_not_a_part(path)
         raise DatasetError(
             f"{path} is not a tactile-synth dataset (no zarr.json)",
             "check the path, or create it with `tactile-synth generate --out PATH`",
@@ -525,12 +526,29 @@ def _read_meta(path: Path) -> dict[str, Any]:
         ) from None
     meta = doc.get("attributes", {}).get(ATTR_KEY) if isinstance(doc, dict) else None
     if not isinstance(meta, dict):
+        _check_not_a_part(path)
         raise DatasetError(
             f"{path} is not a complete tactile-synth dataset (its creation was interrupted "
             f"or it was made by another tool)",
             "regenerate it with your original `tactile-synth generate` command plus --overwrite",
         )
     return meta
+
+
+def _check_not_a_part(path: Path) -> None:
+    """``DatasetError`` naming the dataset when ``path`` is one of its arrays (or lies
+    further down in it), so the user is sent to the dataset instead of being told to
+    regenerate a store that is fine."""
+    inside = enclosing_store(path)
+    if inside is None:
+        return
+    # The dataset as the user would type it: the parent of the given path that it is.
+    shown = next((q for q in path.parents if Path(os.path.abspath(q)) == inside), inside)
+    what = "an array of" if Path(os.path.abspath(path)).parent == inside else "inside"
+    raise DatasetError(
+        f"{path} is {what} the dataset {shown}, not a dataset itself",
+        f"give the dataset instead, e.g. `tactile-synth inspect {shown}`",
+    )
 
 
 def _rebuild_advice(path: Path, meta: dict[str, Any]) -> str:

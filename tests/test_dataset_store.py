@@ -361,3 +361,15 @@ def test_inspect_and_plot(tmp_path):
         with pytest.raises(ValueError, match=rf"^--out {tmp_path / other} must end in \.png"):
             plot_examples(out, tmp_path / other)
         assert not list(tmp_path.glob(f"{other}*"))
+
+
+def test_inspect_of_an_array_names_its_dataset(tmp_path, capsys):
+    from benchmark.cli import main
+
+    out = run(tiny(), tmp_path / "ds")
+    for part, what in ((out / "signals", "an array of"), (out / "signals" / "c", "inside")):
+        assert main(["inspect", str(part)]) == 2
+        err = capsys.readouterr().err
+        assert len(err.strip().splitlines()) == 1, err
+        assert f"{part} is {what} the dataset {out}, not a dataset itself" in err
+        assert f"`tactile-synth inspect {out}`" in err and "--overwrite" not in err
