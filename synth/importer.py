@@ -869,15 +869,17 @@ def import_recordings(
         pending = store.pending_path(out)
         atomic.recover(out, complete=store.is_complete(pending))
         occupied = out.exists() and any(out.iterdir())
+        # --overwrite replaces only a dataset, so a directory of other files is refused
+        # first, without suggesting it.
+        if occupied and not store.is_store(out):
+            raise FileExistsError(
+                f"--out {out} exists and is not a tactile-synth dataset; refusing to "
+                f"overwrite it (choose another --out or delete it yourself)"
+            )
         if occupied and not overwrite:
             raise FileExistsError(
                 f"--out {out} exists and is not empty; pass --overwrite to replace it, "
                 f"or choose another path"
-            )
-        if occupied and not store.is_store(out):
-            raise FileExistsError(
-                f"{out} exists and is not a tactile-synth dataset; refusing to overwrite "
-                f"it (choose another --out or delete it yourself)"
             )
         _check_disk(out, len(rows))
         if pending.exists():

@@ -553,7 +553,7 @@ def test_rates_that_disagree_are_refused(tmp_path):
         import_recordings(recs, tmp_path / "data", progress=False)
 
 
-def test_refuses_a_foreign_out_and_one_holding_the_recordings(tmp_path):
+def test_refuses_a_foreign_out_and_one_holding_the_recordings(tmp_path, capsys):
     recs = tmp_path / "recs"
     small(recs)
     foreign = tmp_path / "mine"
@@ -561,6 +561,11 @@ def test_refuses_a_foreign_out_and_one_holding_the_recordings(tmp_path):
     (foreign / "notes.txt").write_text("keep me")
     with pytest.raises(FileExistsError, match="not a tactile-synth dataset"):
         import_recordings(recs, foreign, sample_rate_hz=1000, overwrite=True, progress=False)
+    assert (foreign / "notes.txt").read_text() == "keep me"
+    assert main(["import", str(recs), "--out", str(foreign), "--sample-rate", "1000"]) == 2
+    err = capsys.readouterr().err
+    assert f"--out {foreign} exists and is not a tactile-synth dataset" in err
+    assert "choose another --out" in err and "pass --overwrite" not in err
     assert (foreign / "notes.txt").read_text() == "keep me"
     with pytest.raises(ValueError, match="replacing it would delete them"):
         import_recordings(recs, tmp_path, sample_rate_hz=1000, overwrite=True, progress=False)
