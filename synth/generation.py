@@ -407,6 +407,13 @@ def prepare(
         raise store.DatasetError(f"--repair: there is no dataset at {out} to repair")
     if config is None:
         raise ValueError("give a preset name or a GenerationConfig (or resume an existing store)")
+    # --resume and --overwrite act only on a dataset, so a directory of other files is
+    # refused first, without suggesting them.
+    if occupied and not store.is_store(out):
+        raise FileExistsError(
+            f"--out {out} exists and is not a tactile-synth dataset; refusing to overwrite "
+            f"it (choose another --out or delete it yourself)"
+        )
     if occupied and not overwrite:
         hint = (
             f" (an interrupted --overwrite left a replacement at {pending}: --resume finishes it)"
@@ -416,11 +423,6 @@ def prepare(
         raise FileExistsError(
             f"--out {out} exists and is not empty{hint}; pass --resume to complete it, "
             f"--overwrite to replace it, or choose another path"
-        )
-    if occupied and not store.is_store(out):
-        raise FileExistsError(
-            f"{out} exists and is not a tactile-synth dataset; refusing to overwrite it "
-            f"(choose another --out or delete it yourself)"
         )
     synth = dict(config.synth) if config.synth is not None else default_synth_config()
     validate_synth_config(synth)

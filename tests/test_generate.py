@@ -203,3 +203,14 @@ def test_repair_resimulates_a_damaged_chunk_to_the_original_bytes(reference, tmp
     assert cli(["generate", "--resume", "--repair", "--out", str(out)]) == 0
     assert chunk_bytes(out) == chunk_bytes(reference)  # the real simulator, bit for bit
     np.testing.assert_array_equal(load_dataset(out).signals, load_dataset(reference).signals)
+
+
+def test_an_out_holding_other_files_is_refused_without_suggesting_resume(tmp_path, capsys):
+    folder = tmp_path / "papers"
+    folder.mkdir()
+    (folder / "thesis.tex").write_text("precious")
+    assert cli(["generate", "--preset", "quick", "--out", str(folder)]) == 2
+    err = capsys.readouterr().err
+    assert f"--out {folder} exists and is not a tactile-synth dataset" in err
+    assert "choose another --out" in err and "--resume" not in err and "pass --overwrite" not in err
+    assert [p.name for p in folder.iterdir()] == ["thesis.tex"]
