@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import errno
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 from shapes.outlines import SHAPE_NAMES
 
@@ -38,17 +41,21 @@ def _export(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from shapes.export import FORMATS, UNITS, export
-    from shapes.outlines import check_shape
     from shapes.validation import check_choice
 
     fmt = check_choice("--format", args.format, FORMATS)
     unit = check_choice("--unit", args.unit, tuple(UNITS))
-    names = [check_shape(args.shape)] if args.shape is not None else list(SHAPE_NAMES)
+    names = (
+        [check_choice("--shape", args.shape, SHAPE_NAMES)]
+        if args.shape is not None
+        else list(SHAPE_NAMES)
+    )
     _check_out_not_in_a_store(args.out, itself=True)  # files among its arrays damage it
     bar = tqdm(names, desc=f"export {fmt}", unit="shape", disable=not sys.stderr.isatty())
-    for name in bar:
-        path = export(name, args.out, fmt, unit=unit)
-        bar.write(f"wrote {path} ({path.stat().st_size:,} bytes)", file=sys.stdout)
+    with _naming_out(args.out):
+        for name in bar:
+            path = export(name, args.out, fmt, unit=unit)
+            bar.write(f"wrote {path} ({path.stat().st_size:,} bytes)", file=sys.stdout)
     return 0
 
 
@@ -56,18 +63,52 @@ def _preview(args: argparse.Namespace) -> int:
     from shapes.preview import preview
 
     _check_out_not_in_a_store(args.out)
-    path = preview(args.out)
+    with _naming_out(args.out):
+        path = preview(args.out)
     print(f"wrote {path}")
     return 0
 
 
+@contextmanager
+def _naming_out(out: str) -> Iterator[None]:
+    """An ``--out`` that cannot be created or written (a missing or read-only place, no
+    permission) is the user's input: a one-line ``ValueError`` naming ``--out`` as given,
+    not the hidden temporary file that failed. Other errors (a full disk) pass unchanged."""
+    try:
+        yield
+    except OSError as exc:
+        if exc.errno not in _PATH_ERRNOS:
+            raise
+        raise ValueError(
+            f"--out {out} cannot be written ({exc.strerror}); choose another path"
+        ) from None
+
+
+#: errno values that say the place asked for is unusable, not that the work failed.
+_PATH_ERRNOS = (
+    errno.ENOENT,
+    errno.ENOTDIR,
+    errno.EISDIR,
+    errno.EROFS,
+    errno.EACCES,
+    errno.EPERM,
+)
+
+
 def _check_out_not_in_a_store(out: str, *, itself: bool = False) -> None:
-    """Refuse an ``--out`` inside a dataset store (or, with ``itself``, a store's own
-    directory) in one line, before anything is built or written. The check is the
+    """Refuse an ``--out`` that a file blocks or that lies inside a dataset store (or, with
+    ``itself``, is a store's own directory) in one line, before anything is built or
+    written. The check is the
     dataset commands' own, imported here so the shapes package stays independent of
     the simulator."""
+    from synth.atomic import check_dir_path, check_out_dir
     from synth.store import check_not_inside_a_store
 
+    # A file standing at the path, or where one of its directories must be.
+    if itself:
+        check_out_dir(out)
+    else:
+        check_dir_path(out)
     check_not_inside_a_store(out, itself=itself)
 
 

@@ -247,6 +247,21 @@ def test_cli_export_all_and_one(cold_cache, cache_env, tmp_path, capsys):
         _cli(["shapes", "export", "--out", str(one), "--format", "ply"])
 
 
+def test_cli_errors_name_shape_and_out_as_typed(tmp_path):
+    with pytest.raises(ValueError, match=r"^--shape must be one of circle, "):
+        _cli(["shapes", "export", "--out", str(tmp_path / "s"), "--shape", "x"])
+    for argv in (
+        ["export", "--shape", "square", "--out", "/proc/tactile-synth-test"],
+        ["preview", "--out", "/proc/tactile-synth-test.png"],
+    ):
+        with pytest.raises(ValueError, match=rf"^--out {argv[-1]} cannot be written \("):
+            _cli(["shapes", *argv])
+    (tmp_path / "f.txt").write_text("a file")
+    with pytest.raises(NotADirectoryError, match=rf"^--out {tmp_path}/f.txt/out: "):
+        _cli(["shapes", "export", "--shape", "square", "--out", str(tmp_path / "f.txt" / "out")])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f.txt"]
+
+
 def test_cli_preview_writes_a_png(tmp_path, capsys):
     out = tmp_path / "shapes.png"
     assert _cli(["shapes", "preview", "--out", str(out)]) == 0
