@@ -46,6 +46,7 @@ import datetime as _dt
 import importlib.metadata
 import json
 import os
+import re
 import shlex
 import uuid
 from collections.abc import Iterable, Iterator, Sequence
@@ -516,13 +517,14 @@ def _read_meta(path: Path) -> dict[str, Any]:
             f"{path} is not a tactile-synth dataset (no zarr.json)",
             "check the path, or create it with `tactile-synth generate --out PATH`",
         )
+    raw = meta_file.read_bytes()
     try:
-        doc = json.loads(meta_file.read_bytes())
+        doc = json.loads(raw)
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise DatasetError(
             f"{meta_file} is damaged (not valid JSON: {exc}), so the dataset's configuration "
             f"is lost",
-            "regenerate it with your original `tactile-synth generate` command plus --overwrite",
+            _rebuild_unreadable(raw),
         ) from None
     meta = doc.get("attributes", {}).get(ATTR_KEY) if isinstance(doc, dict) else None
     if not isinstance(meta, dict):
@@ -533,6 +535,20 @@ def _read_meta(path: Path) -> dict[str, Any]:
             "regenerate it with your original `tactile-synth generate` command plus --overwrite",
         )
     return meta
+
+
+def _rebuild_unreadable(raw: bytes) -> str:
+    """How to rebuild a store whose metadata is no longer valid JSON: by the command that
+    made it, an import or a generation, as far as the surviving text still says which."""
+    kind = re.search(rb'"kind"\s*:\s*"(\w+)"', raw)
+    if kind is not None and kind.group(1).decode() == KIND_IMPORTED:
+        return "import it again with your original `tactile-synth import` command plus --overwrite"
+    if kind is not None:
+        return "regenerate it with your original `tactile-synth generate` command plus --overwrite"
+    return (
+        "rebuild it with the command that made it, your original `tactile-synth generate` "
+        "or `tactile-synth import` command, plus --overwrite"
+    )
 
 
 def _check_not_a_part(path: Path) -> None:

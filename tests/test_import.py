@@ -579,6 +579,19 @@ def test_refuses_a_foreign_out_and_one_holding_the_recordings(tmp_path, capsys):
     assert np.array_equal(load_dataset(data).signals, before)
 
 
+def test_an_import_with_damaged_metadata_is_sent_to_import_again(tmp_path, capsys):
+    recs = tmp_path / "recs"
+    small(recs)
+    data = tmp_path / "data"
+    import_recordings(recs, data, sample_rate_hz=1000, progress=False)
+    meta = data / "zarr.json"
+    meta.write_bytes(meta.read_bytes()[:-40])  # cut short: no longer JSON
+    assert main(["inspect", str(data)]) == 2
+    err = capsys.readouterr().err
+    assert f"{meta} is damaged" in err and len(err.strip().splitlines()) == 1
+    assert "`tactile-synth import` command plus --overwrite" in err and "generate" not in err
+
+
 def test_unlisted_recordings_are_named_in_a_warning(tmp_path):
     recs = tmp_path / "recs"
     small(recs)
