@@ -5,6 +5,7 @@ bad input named by file and line, and nothing half-imported left behind."""
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -695,3 +696,9 @@ def test_killed_import_leaves_no_dataset_and_the_next_one_cleans_up(tmp_path, pr
     import_recordings(recs, out, sample_rate_hz=1000, overwrite=True, progress=False)
     assert load_dataset(out).signals.shape == (3, len(CHANNELS), N_SAMPLES)
     assert leftovers(tmp_path, out) == ["data"]
+
+
+def test_the_inspect_example_in_docs_shows_the_current_format_version():
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "recordings.md").read_text()
+    shown = re.findall(r"^format +(\d+) \(", doc, flags=re.MULTILINE)
+    assert shown and all(int(v) == store.FORMAT_VERSION for v in shown), shown
