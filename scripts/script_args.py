@@ -29,7 +29,9 @@ def load_data(parser: argparse.ArgumentParser, path: str, arg: str = "--data"):
     try:
         return load_dataset(path)
     except (DatasetError, OSError) as exc:
-        fail(parser, f"{arg} {path}: {exc}")
+        # An incomplete dataset's advice for command lines: `generate --resume`, not the
+        # Python API's allow_incomplete.
+        fail(parser, f"{arg} {path}: {getattr(exc, 'cli_message', exc)}")
 
 
 def check_methods(parser: argparse.ArgumentParser, methods: Sequence[str]) -> tuple[str, ...]:

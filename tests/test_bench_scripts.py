@@ -84,3 +84,18 @@ def test_help_shows_the_whole_first_sentence(name, monkeypatch, capsys):
     first = " ".join(module.__doc__.split("\n\n")[0].split())
     assert first.endswith(".")
     assert first in " ".join(capsys.readouterr().out.split())
+
+
+def test_an_incomplete_dataset_is_finished_the_cli_way(monkeypatch, capsys):
+    def incomplete(path):
+        raise synth.store.DatasetIncomplete(
+            f"dataset {path} is incomplete (1/3 chunks done)",
+            f"finish it with `tactile-synth generate --resume --out {path}`",
+            "load it with allow_incomplete=True",
+        )
+
+    monkeypatch.setattr(synth.store, "load_dataset", incomplete)
+    main = _script("bench_store", monkeypatch).main
+    err = _fails(main, ["--data", "part"], capsys)
+    assert "error: --data part: dataset part is incomplete" in err
+    assert "generate --resume --out part`" in err and "allow_incomplete" not in err
