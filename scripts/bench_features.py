@@ -2,7 +2,7 @@
 
     python3 scripts/bench_features.py --data PATH [--tsfresh-trials 216]
 
-Issue 5 target: the 2,160-trial paper dataset in under 5 s on one core. The process is
+Target: the 2,160-trial paper dataset in under 5 s on one core. The process is
 pinned to one CPU and BLAS/OpenMP pools to one thread before numpy is imported.
 
 Speed reference: tsfresh (not a dependency; install it in a separate environment, e.g.
