@@ -171,7 +171,9 @@ def digitise(
         worst = np.unravel_index(np.argmax(np.abs(out)), out.shape)
         raise SaturationError(
             f"ADC saturated ({float(out[worst]):.2f} V beyond +-{acq.range_v} V) in trial "
-            f"{worst[0]} of the batch, channel {worst[1]}: lower the amplifier gain"
+            f"{worst[0]} of the batch, channel {worst[1]}: a lighter force, or a smaller "
+            "gain of that channel's amplifier (pvdf.post_gain, strain_gauge.amplifier_gain), "
+            "keeps it inside"
         )
     return np.round(out / lsb) * lsb
 
