@@ -303,15 +303,22 @@ class StrainGauge:
 class PVDF:
     """PVDF films bonded under the skin at the pad's front and rear (channels 1-2).
 
-    The skin over a film is pushed in by the contact (the indentation spreads beyond the
-    contact patch as on an elastic half-space), bending the film to a curvature
-    ``4 w / L^2`` for a deflection ``w`` over its length ``L``. The electrodes collect the
-    film's charge averaged through its thickness, so bending yields charge only in
-    proportion to the distance ``e`` between the film's mid-plane and the neutral axis of
-    what bends with it: the mean in-plane strain is ``4 e w / L^2``. The charge is
-    ``d31 * E * strain * area`` (stress along the film's stretch axis); a charge
-    amplifier (feedback ``C_f`` parallel ``R_f``) turns it into ``-q / C_f`` above its
-    high-pass corner ``1 / (2 pi R_f C_f)``. Material constants: Measurement
+    Each film lies along the path and conforms to the skin, whose surface the contact
+    pushes in (the sphere's shape inside the contact, the elastic half-space's
+    deflection outside it). Two strains stretch the film in-plane:
+
+    - bending: its mean curvature, the change of the surface's slope from one end of
+      the film to the other over its length (a film only moved, not bent, has none),
+      times the distance ``e`` between its mid-plane and the neutral axis of what bends
+      with it (the electrodes collect the charge of the strain averaged through the
+      film's thickness, which is zero for a film bending about its own mid-plane);
+    - the tangential traction: friction and the texture's push shear the skin, which
+      shortens ahead of the contact and stretches behind it, and the bonded film takes
+      part of that strain (``shear_strain_per_n``).
+
+    The charge is ``d31 * E * strain * area`` (stress along the film's stretch axis); a
+    charge amplifier (feedback ``C_f`` parallel ``R_f``) turns it into ``-q / C_f`` above
+    its high-pass corner ``1 / (2 pi R_f C_f)``. Material constants: Measurement
     Specialties, Piezo Film Sensors Technical Manual (Table 1).
     """
 
@@ -332,6 +339,20 @@ class PVDF:
     #: give about 67 um. The finger's description does not give the films' carrier;
     #: the default takes the thin polyester one.
     neutral_axis_offset_m: float = 14e-6
+    #: In-plane strain of a film per newton of tangential traction on the skin. A
+    #: tangential point load ``Q`` on an elastic half-space (Cerruti; Johnson, *Contact
+    #: Mechanics*, 1985, ch. 3) moves the surface along the load by
+    #: ``(1 + nu) Q / (pi E x)`` at a distance ``x`` on its line: the skin's surface
+    #: strain there is ``(1 + nu) Q / (pi E x^2)``, 10 % per newton at the film's 4 mm
+    #: (``Finger.skin_modulus_pa``). The film with its carrier is some 160 times stiffer
+    #: in-plane than the skin it is bonded in, which carries that strain over a depth of
+    #: the order of ``x``; the film takes the skin's in-plane force instead,
+    #: ``(1 + nu) Q / (pi x)`` per unit width, and strains by that over its in-plane
+    #: stiffness ``E t`` plus its carrier's (28 um PVDF at 3 GPa, 23 um polyester at
+    #: 4.5 GPa: 188 kN/m): ``(1 + nu) / (pi x sum(E t))`` = 6.3e-4 per newton. The
+    #: depth the skin carries the load over is known only to within a factor of about
+    #: 1.5 (the distance to the film, 4 mm, to its length, 5 mm, and below).
+    shear_strain_per_n: float = 6.3e-4
     #: Electrode length (along the sliding direction) and width: a strip that fits on the
     #: pad's front / rear flank.
     length_m: float = 5.0e-3
@@ -344,8 +365,8 @@ class PVDF:
     feedback_capacitance_f: float = 1.0e-9
     feedback_resistance_ohm: float = 100e6
     #: Voltage gain after the charge amplifier, sized so the sharpest edge transients of
-    #: the perturbation grid stay inside the DAQ's +-10 V.
-    post_gain: float = 2.0
+    #: the perturbation grid stay inside the DAQ's +-10 V (``scripts/calibrate.py gain``).
+    post_gain: float = 1.0
     #: Input voltage noise density of the charge amplifier's op-amp (JFET-input, ~10 nV/
     #: sqrt(Hz)); the film's capacitance raises its noise gain to 1 + C_film / C_f.
     amplifier_noise_v_per_sqrt_hz: float = 10e-9
@@ -364,7 +385,11 @@ class PVDF:
             "post_gain",
         )
         params.non_negative(
-            self, "offset_m", "amplifier_noise_v_per_sqrt_hz", "neutral_axis_offset_m"
+            self,
+            "offset_m",
+            "amplifier_noise_v_per_sqrt_hz",
+            "neutral_axis_offset_m",
+            "shear_strain_per_n",
         )
         params.below(self, "neutral_axis_offset_m", 1e-3, "a film's carrier is sub-millimetre")
 

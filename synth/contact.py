@@ -53,6 +53,27 @@ def surface_deflection_m(distance_m, indentation_m, radius_m: float):
     return np.where(delta > 0, np.maximum(out, 0.0), 0.0)
 
 
+def surface_slope(distance_m, indentation_m, radius_m: float):
+    """Slope ``dw/dx`` of the inward deflection :func:`surface_deflection_m` along a line
+    through the contact centre, at the signed distance ``distance_m`` from it (inside the
+    contact the sphere's ``-x / R``; outside, the half-space solution's
+    ``delta / (pi a) (2 sqrt(rho^2 - 1) / rho - 2 rho asin(1 / rho))`` with
+    ``rho = |x| / a``, signed with ``x``; both give ``-a / R`` at the rim)."""
+    x = np.asarray(distance_m, dtype=float)
+    r = np.abs(x)
+    delta = np.maximum(np.asarray(indentation_m, dtype=float), 0.0)
+    a = np.sqrt(radius_m * delta)
+    a_safe = np.where(a > 0, a, 1.0)
+    rho = np.maximum(r / a_safe, 1.0)
+    outside = (
+        delta
+        / (np.pi * a_safe)
+        * (2.0 * np.sqrt(rho**2 - 1.0) / rho - 2.0 * rho * np.arcsin(1.0 / rho))
+    )
+    slope = np.where(r <= a, -r / radius_m, outside) * np.sign(x)
+    return np.where(delta > 0, slope, 0.0)
+
+
 def friction_coefficient(law: FrictionLaw, slip_speed_m_s, normal_force_n, scale=1.0):
     """The law's coefficient at ``slip_speed_m_s`` and ``normal_force_n``, times ``scale``
     (the stroke's scatter factor)."""

@@ -26,12 +26,15 @@ class Mechanics:
     contact_ahead_m: the contact's force centroid ahead of the pad's axis along the path
         (0 without contact).
     indentation_m: the skin's deepest penetration into the specimen (0 without contact).
+    traction_n: the contact's tangential force on the skin along the path (0 without
+        contact).
     """
 
     mount_force: np.ndarray
     mount_torque: np.ndarray
     contact_ahead_m: np.ndarray
     indentation_m: np.ndarray
+    traction_n: np.ndarray
 
 
 def gauge_strains(mech: Mechanics, finger: Finger, sg: StrainGauge) -> np.ndarray:
@@ -72,18 +75,28 @@ def bridge_zero_v(sg: StrainGauge) -> float:
 def film_strains(mech: Mechanics, finger: Finger, pvdf: PVDF) -> np.ndarray:
     """In-plane bending strain of the front and rear films ``(b, 2, n)``.
 
-    The skin over each film is pushed in by ``w``, the elastic surface deflection around
-    the contact (:func:`synth.contact.surface_deflection_m`) at the film's distance from the
-    contact centroid; the film bends over its length ``L`` to a curvature ``4 w / L^2``,
-    and its mean strain through the thickness, which its charge follows, is that
-    curvature times the distance ``e`` from its mid-plane to the neutral axis
-    (:attr:`synth.config.PVDF.neutral_axis_offset_m`): ``4 e w / L^2``.
+    Each film lies along the path under the skin and bends with the skin's surface, which
+    the contact pushes in by ``w(x)`` (:func:`synth.contact.surface_deflection_m`: the
+    sphere's shape inside the contact, the half-space solution outside). The film's mean
+    curvature over its length ``L`` is the change of the surface's slope from one end to
+    the other, ``(w'(x2) - w'(x1)) / L`` (:func:`synth.contact.surface_slope`): a film
+    that is only moved, not bent, carries none. Its mean strain through the thickness,
+    which its charge follows, is that curvature times the distance ``e`` from its
+    mid-plane to the neutral axis (:attr:`synth.config.PVDF.neutral_axis_offset_m`); the
+    sign is the one of a film stretched on its bonded face by a concave bend.
     """
     out = []
+    half = pvdf.length_m / 2.0
+    r = finger.pad_radius_m
     for sign in (1.0, -1.0):  # front film ahead of the pad's axis, rear film behind it
-        distance = sign * pvdf.offset_m - mech.contact_ahead_m
-        w = contact.surface_deflection_m(distance, mech.indentation_m, finger.pad_radius_m)
-        out.append(4.0 * pvdf.neutral_axis_offset_m * w / pvdf.length_m**2)
+        centre = sign * pvdf.offset_m - mech.contact_ahead_m
+        rise = contact.surface_slope(centre + half, mech.indentation_m, r) - (
+            contact.surface_slope(centre - half, mech.indentation_m, r)
+        )
+        bending = -pvdf.neutral_axis_offset_m * rise / pvdf.length_m
+        # A traction along the path shortens the skin ahead of the contact and stretches
+        # it behind (Cerruti); sliding friction, against the path, does the reverse.
+        out.append(bending - sign * pvdf.shear_strain_per_n * mech.traction_n)
     return np.stack(out, axis=1)
 
 
@@ -158,7 +171,9 @@ def digitise(
         worst = np.unravel_index(np.argmax(np.abs(out)), out.shape)
         raise SaturationError(
             f"ADC saturated ({float(out[worst]):.2f} V beyond +-{acq.range_v} V) in trial "
-            f"{worst[0]} of the batch, channel {worst[1]}: lower the amplifier gain"
+            f"{worst[0]} of the batch, channel {worst[1]}: a lighter force, or a smaller "
+            "gain of that channel's amplifier (pvdf.post_gain, strain_gauge.amplifier_gain), "
+            "keeps it inside"
         )
     return np.round(out / lsb) * lsb
 

@@ -377,6 +377,7 @@ def _process(
         mount_torque=_unrock(sens[..., cols["mount_torque"]], cos_pitch, sin_pitch),
         contact_ahead_m=np.where(found, (rel * direction).sum(axis=-1), 0.0),
         indentation_m=np.where(depth[..., 0] > 0, np.maximum(-depth[..., 1], 0.0), 0.0),
+        traction_n=-(force[..., :2] * direction).sum(axis=-1),
     )
     strain = sensors.gauge_strains(mech, config.finger, config.strain_gauge)
     sg = sensors.bridge_volts(strain, config.strain_gauge, fs)

@@ -241,7 +241,7 @@ def test_whatif_evaluates_the_set_configuration_over_every_seed(monkeypatch, cap
     assert config.materials["resin"].texture.roughness_rms_m == resin.roughness_rms_m * 0.5
     assert not closed  # only with --closed-set
     out = capsys.readouterr().out
-    assert "PVDF amplifier noise 30.2 mV RMS at the DAQ" in out
+    assert "PVDF amplifier noise 15.1 mV RMS at the DAQ" in out
     assert "pvdf_share_gap -0.300" in out
     assert calibrate.main([*argv, "--closed-set", "50"]) == 0
     assert [e for _, e in closed] == [50]
