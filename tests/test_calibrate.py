@@ -175,8 +175,9 @@ def test_whatif_refuses_a_bad_setting_in_one_line(argv, message):
 
 
 def test_gain_sizes_the_default_post_gain_and_any_configurations(capsys):
-    """The default post-gain is the one the script sizes; a film carrier that quadruples
-    the charge (the 125 um laminate) gets a quarter of it, rounded in the 1-2-5 series."""
+    """The default post-gain is the one the script sizes; a film carrier that multiplies
+    the bending charge by 4.8 (the 125 um laminate) gets a smaller one, rounded in the
+    1-2-5 series (half: the shear coupling's charge does not grow with the carrier)."""
     calibrate = _calibrate_module()
     assert calibrate.main(["gain"]) == 0
     default = synth.SynthConfig().pvdf.post_gain
