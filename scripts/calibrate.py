@@ -113,6 +113,13 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
         "charge-amplifier high-pass 0.16 / 1.6 / 16 Hz",
     ),
     (
+        "pvdf",
+        "shear_strain_per_n",
+        (4.2e-4, 6.3e-4, 9.5e-4),
+        "the films' shear coupling: the depth the skin carries the traction over, known to "
+        "within a factor of 1.5",
+    ),
+    (
         "finger",
         "ridge_width_m",
         (0.1e-3, 0.15e-3, 0.2e-3, 0.3e-3),
@@ -440,9 +447,15 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def _config_key(config: synth.SynthConfig) -> str:
-    """A configuration's identity: the SHA-256 of its canonical JSON."""
-    text = json.dumps(config.to_dict(), sort_keys=True)
-    return hashlib.sha256(text.encode()).hexdigest()
+    """A measurement's identity: the SHA-256 of the canonical JSON of the configuration,
+    the simulator's format version (what it simulates from a configuration) and the
+    tuned hyper-parameters AFOP-ML's selection uses, so that ``--resume`` keeps no row
+    measured by another simulator or another tuning."""
+    from models.tuned import tuned_values
+    from synth.store import FORMAT_VERSION
+
+    identity = {"config": config.to_dict(), "format": FORMAT_VERSION, "tuned": tuned_values()}
+    return hashlib.sha256(json.dumps(identity, sort_keys=True).encode()).hexdigest()
 
 
 def _previous_measurements(out: Path | None, args: argparse.Namespace) -> dict[str, dict]:

@@ -134,6 +134,14 @@ def test_an_interrupted_sweep_keeps_its_rows_and_resumes_where_it_stopped(tmp_pa
     # other trials per class: nothing is reused
     assert calibrate.main([*argv, "--resume", "--trials-per-class", "5"]) == 0
     assert calls[4:] == [0.0, 0.005, 0.01, 0.02]
+    # other tuned hyper-parameters (AFOP-ML's selection measures with them): nothing either
+    import models.tuned
+
+    values = models.tuned.tuned_values()
+    retuned = {**values, "AFOP-ML": {**values["AFOP-ML"], "ncfs_max_iter": 7}}
+    monkeypatch.setattr(models.tuned, "tuned_values", lambda *a: retuned)
+    assert calibrate.main([*argv, "--resume", "--trials-per-class", "5"]) == 0
+    assert calls[8:] == [0.0, 0.005, 0.01, 0.02]
 
 
 def test_sweep_resume_refuses_without_out_and_a_foreign_table(tmp_path, monkeypatch):
