@@ -592,6 +592,7 @@ def _fmt_closed_set(key: str, value: float) -> str:
 
 def cmd_whatif(args: argparse.Namespace) -> int:
     from synth.sensors import SaturationError, amplifier_noise_v
+    from synth.simulator import SaturatedTrialError
 
     config = _configured(args.set)
     noise = amplifier_noise_v(config)
@@ -609,7 +610,7 @@ def cmd_whatif(args: argparse.Namespace) -> int:
             if args.closed_set:
                 row = _closed_set_row(config, args.closed_set, Path(tmp) / "paper")
                 print(", ".join(f"{k} {_fmt_closed_set(k, v)}" for k, v in row.items()))
-        except SaturationError as exc:
+        except (SaturationError, SaturatedTrialError) as exc:
             # A setting that raises a channel's signal can drive it beyond the ADC's range;
             # the DAQ cannot record that configuration as set.
             raise SystemExit(f"--set {' '.join(args.set)}: {exc}") from None

@@ -75,7 +75,7 @@ def simulate_trials(specs: Sequence[TrialSpec], config: Any, threads: int) -> li
     a :class:`synth.SimulationError` naming the trial's shape, material, force, speed and
     seed (the sensor chain only knows the trial's place in its batch)."""
     from .sensors import SaturationError
-    from .simulator import SimulationError, simulate_batch
+    from .simulator import SaturatedTrialError, simulate_batch
 
     quiet_mujoco_warnings()
     try:
@@ -90,7 +90,7 @@ def simulate_trials(specs: Sequence[TrialSpec], config: Any, threads: int) -> li
                     culprit = spec
                     break
         reason = str(exc).split(" in trial ")[0]
-        raise SimulationError(
+        raise SaturatedTrialError(
             f"{reason} while simulating shape={culprit.shape!r}, material={culprit.material!r}, "
             f"force_n={culprit.force_n}, speed_mm_s={culprit.speed_mm_s}, seed={culprit.seed}"
         ) from None

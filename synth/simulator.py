@@ -73,6 +73,11 @@ class SimulationError(RuntimeError):
     """The physics went wrong for a trial (MuJoCo warning, NaN, lost contact, stuck finger)."""
 
 
+class SaturatedTrialError(SimulationError):
+    """A trial's signals leave the DAQ's range (:func:`synth.generation.simulate_trials`
+    names the trial)."""
+
+
 @dataclass(frozen=True)
 class Plan:
     """One trial's drawn conditions, its model, initial state and closed-loop inputs."""

@@ -214,7 +214,8 @@ def test_marks_scale_scales_the_periodic_marks_and_keeps_the_roughness():
 def test_whatif_refuses_a_configuration_the_adc_cannot_record_in_one_line():
     calibrate = _calibrate_module()
     argv = ["whatif", "--set", "pvdf.post_gain=500", "--trials-per-class", "2"]
-    with pytest.raises(SystemExit, match=r"^--set pvdf.post_gain=500: ADC saturated .* channel 0"):
+    saturated = r"^--set pvdf.post_gain=500: ADC saturated .* while simulating shape='"
+    with pytest.raises(SystemExit, match=saturated):
         calibrate.main(argv)
 
 
