@@ -15,7 +15,6 @@ at a time may write an output directory (a lock beside it).
 from __future__ import annotations
 
 import datetime as _dt
-import errno
 import json
 import os
 import shutil
@@ -145,11 +144,7 @@ class OutputDir:
         """A read-only, forbidden or unusable ``--out`` is the user's input: a one-line
         ``ValueError`` naming ``--out`` as given, not the hidden file that failed; other
         errors (a full disk) pass unchanged."""
-        if exc.errno not in (errno.EROFS, errno.EACCES, errno.EPERM):
-            return exc
-        return ValueError(
-            f"--out {self.given} cannot be written ({exc.strerror}); choose another directory"
-        )
+        return atomic.not_writable(exc, self.given, "choose another directory")
 
     def _drop_checkpoints(self) -> None:
         """``overwrite`` starts over: every protocol is computed again, none is taken

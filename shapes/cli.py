@@ -74,25 +74,17 @@ def _naming_out(out: str) -> Iterator[None]:
     """An ``--out`` that cannot be created or written (a missing or read-only place, no
     permission) is the user's input: a one-line ``ValueError`` naming ``--out`` as given,
     not the hidden temporary file that failed. Other errors (a full disk) pass unchanged."""
+    from synth.atomic import NOT_WRITABLE_ERRNOS, not_writable
+
+    # A missing place, or a file where a directory must be, is unusable here as well.
+    unusable = (*NOT_WRITABLE_ERRNOS, errno.ENOENT, errno.ENOTDIR, errno.EISDIR)
     try:
         yield
     except OSError as exc:
-        if exc.errno not in _PATH_ERRNOS:
+        error = not_writable(exc, out, "choose another path", unusable)
+        if error is exc:
             raise
-        raise ValueError(
-            f"--out {out} cannot be written ({exc.strerror}); choose another path"
-        ) from None
-
-
-#: errno values that say the place asked for is unusable, not that the work failed.
-_PATH_ERRNOS = (
-    errno.ENOENT,
-    errno.ENOTDIR,
-    errno.EISDIR,
-    errno.EROFS,
-    errno.EACCES,
-    errno.EPERM,
-)
+        raise error from None
 
 
 def _check_out_not_in_a_store(out: str, *, itself: bool = False) -> None:

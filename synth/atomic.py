@@ -62,6 +62,26 @@ def check_dir_path(path: str | Path, arg: str = "--out") -> None:
             return
 
 
+#: errno values that say an output place is read-only or forbidden, not that the work
+#: failed (a full disk is not among them).
+NOT_WRITABLE_ERRNOS: tuple[int, ...] = (errno.EROFS, errno.EACCES, errno.EPERM)
+
+
+def not_writable(
+    exc: OSError,
+    given: str | Path,
+    advice: str,
+    errnos: tuple[int, ...] = NOT_WRITABLE_ERRNOS,
+) -> Exception:
+    """The error to raise for ``exc``, met while writing the ``--out`` the user gave as
+    ``given``: for one of ``errnos`` the place is the user's input, so a one-line
+    ``ValueError`` naming ``--out`` as given (ending with ``advice``), not the hidden file
+    that failed; otherwise ``exc`` itself."""
+    if exc.errno not in errnos:
+        return exc
+    return ValueError(f"--out {given} cannot be written ({exc.strerror}); {advice}")
+
+
 class PathLock:
     """Exclusive lock on ``path`` (existing or not) for this process; use as a context
     manager. Raises :class:`LockedError` at once if another process (or another

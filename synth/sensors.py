@@ -73,7 +73,8 @@ def bridge_zero_v(sg: StrainGauge) -> float:
 
 
 def film_strains(mech: Mechanics, finger: Finger, pvdf: PVDF) -> np.ndarray:
-    """In-plane bending strain of the front and rear films ``(b, 2, n)``.
+    """In-plane strain of the front and rear films ``(b, 2, n)``: their bending plus the
+    skin's shear under the traction.
 
     Each film lies along the path under the skin and bends with the skin's surface, which
     the contact pushes in by ``w(x)`` (:func:`synth.contact.surface_deflection_m`: the
@@ -83,7 +84,9 @@ def film_strains(mech: Mechanics, finger: Finger, pvdf: PVDF) -> np.ndarray:
     that is only moved, not bent, carries none. Its mean strain through the thickness,
     which its charge follows, is that curvature times the distance ``e`` from its
     mid-plane to the neutral axis (:attr:`synth.config.PVDF.neutral_axis_offset_m`); the
-    sign is the one of a film stretched on its bonded face by a concave bend.
+    sign is the one of a film stretched on its bonded face by a concave bend. The shear
+    adds ``shear_strain_per_n`` times the traction along the path, with opposite signs in
+    the two films (:attr:`synth.config.PVDF.shear_strain_per_n`).
     """
     out = []
     half = pvdf.length_m / 2.0
