@@ -1,4 +1,5 @@
-"""Resumable runs: each finished protocol's records in ``DIR/checkpoints/<protocol>.json``.
+"""Resumable runs: each finished protocol's records in ``DIR/checkpoints/<protocol>.json``,
+and each finished fit of the protocols still running in ``DIR/checkpoints/fits/``.
 
 A checkpoint is ``{"key": ..., "records": [...]}``: the key is a SHA-256 of everything
 that determines the records (dataset fingerprints, methods and their settings, the
@@ -7,6 +8,11 @@ seed, protocol) and of :data:`LAYOUT`, so a re-run with
 the same inputs reuses them and any change recomputes.
 Records are written and read through :mod:`benchmark.results` (schema version checked,
 typed on load); a damaged or foreign file counts as no checkpoint.
+
+A fit checkpoint (:class:`FitCheckpoints`) holds one method's results on one fit group
+(:class:`benchmark.engine.FitGroup`) under a key made of the keys of the protocols its
+shares belong to, their tasks and the method: an interrupted run continues with the fits
+that were not finished. Once every protocol of a run is checkpointed they are deleted.
 """
 
 from __future__ import annotations
@@ -15,16 +21,20 @@ import hashlib
 import json
 import os
 import re
+import shutil
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from synth import Dataset
 
 from .results import from_json, to_json
+
+if TYPE_CHECKING:
+    from .engine import FitGroup, FitResult
 
 #: Top-level packages of tactile-synth: the package version covers their classes' code.
 OWN_PACKAGES = frozenset({"shapes", "synth", "models", "benchmark", "tactile_synth"})
@@ -121,3 +131,69 @@ def save(out: Path, protocol: str, key: str, records: Sequence[Mapping[str, Any]
     tmp = path.with_suffix(".tmp")
     tmp.write_text(json.dumps({"key": key, "records": to_json(records)}))
     tmp.replace(path)
+
+
+class FitCheckpoints:
+    """Finished fits in ``out/checkpoints/fits/``, for :func:`benchmark.engine.run_task_sets`
+    (``fit_cache``). ``set_keys[i]`` is the checkpoint key of the protocol of task set
+    ``i``: a fit's key hashes those of the sets its group serves, the names and fit trials
+    of their tasks, the methods of each share and the method fitted, so a fit is found
+    again only by a run that asks for the very same fit."""
+
+    def __init__(self, out: Path, set_keys: Sequence[str]) -> None:
+        self.directory = Path(out) / "checkpoints" / "fits"
+        self.set_keys = list(set_keys)
+        self.found = 0
+
+    def _key(self, group: FitGroup, name: str) -> str:
+        shares = [
+            {
+                "set": self.set_keys[share.set_index],
+                "tasks": [t.name for t in share.tasks],
+                "fit": [
+                    hashlib.sha256(np.ascontiguousarray(t.fit.index).tobytes()).hexdigest()[:16]
+                    for t in share.tasks
+                ],
+                "methods": list(share.methods),
+            }
+            for share in group.shares
+        ]
+        return key({"fit": name, "shares": shares})
+
+    def _path(self, fit_key: str) -> Path:
+        return self.directory / f"{fit_key[:32]}.json"
+
+    def load(self, group: FitGroup, name: str) -> FitResult | None:
+        """The results saved for ``name`` on ``group``, or None (none, damaged, or saved
+        under another key)."""
+        from .engine import FitResult
+
+        fit_key = self._key(group, name)
+        path = self._path(fit_key)
+        if not path.is_file():
+            return None
+        try:
+            saved = json.loads(path.read_text())
+            if not isinstance(saved, dict) or saved.get("key") != fit_key:
+                return None
+            result = FitResult.from_json(json.dumps(saved["result"]))
+        except (json.JSONDecodeError, KeyError, TypeError, ValueError):
+            return None
+        if len(result.shares) != len(group.shares):
+            return None
+        self.found += 1
+        return result
+
+    def save(self, group: FitGroup, name: str, result: FitResult) -> None:
+        """Save ``result`` of ``name`` on ``group``, atomically."""
+        fit_key = self._key(group, name)
+        path = self._path(fit_key)
+        self.directory.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(".tmp")
+        text = '{"key": ' + json.dumps(fit_key) + ', "result": ' + result.to_json() + "}"
+        tmp.write_text(text)
+        tmp.replace(path)
+
+    def clear(self) -> None:
+        """Delete every fit checkpoint (the protocols they served are checkpointed)."""
+        shutil.rmtree(self.directory, ignore_errors=True)

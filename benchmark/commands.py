@@ -142,9 +142,9 @@ def _benchmark(args: argparse.Namespace) -> int:
         again = _again(args, ["benchmark", args.protocol, "--out", str(args.out)])
         print(
             f"tactile-synth benchmark: interrupted; the outputs in {args.out} are as they were "
-            f"and the protocols finished are kept in {args.out}/checkpoints: "
-            f"`tactile-synth {again}` continues from them (a protocol interrupted part-way "
-            f"starts over)",
+            f"and the protocols and fits finished are kept in {args.out}/checkpoints: "
+            f"`tactile-synth {again}` continues from them (only the fits that were running "
+            f"start over)",
             file=sys.stderr,
         )
         return 130
@@ -223,8 +223,9 @@ def _run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         again = _again(args, ["run", "--out", str(args.out)])
         print(
-            f"tactile-synth run: interrupted; the finished datasets and protocols in {args.out} "
-            f"are kept: `tactile-synth {again}` continues from them",
+            f"tactile-synth run: interrupted; the finished datasets, protocols and fits in "
+            f"{args.out} are kept: `tactile-synth {again}` continues from them (only the fits "
+            f"that were running start over)",
             file=sys.stderr,
         )
         return 130

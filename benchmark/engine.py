@@ -27,6 +27,7 @@ This module imports no protocol: protocols import it.
 
 from __future__ import annotations
 
+import json
 import time
 import zlib
 from abc import ABC, abstractmethod
@@ -34,6 +35,7 @@ from collections.abc import Callable, Hashable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from typing import ClassVar, NamedTuple
+from typing import Protocol as TypingProtocol
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -53,6 +55,7 @@ from .results import (
     Record,
     accuracy_record,
     dscan_record,
+    from_dict,
     meta_curve_record,
     selection_record,
 )
@@ -391,6 +394,54 @@ class FitResult(NamedTuple):
 
     shares: list[TaskResults]
 
+    def to_json(self) -> str:
+        """JSON text of the results: the records as results.json holds them and the
+        per-episode accuracies (floats written exactly), so :meth:`from_json` gives back
+        the very same figures."""
+        return json.dumps(
+            [
+                {
+                    "scored": [
+                        {
+                            "record": s.record.to_dict(),
+                            "accuracies": np.asarray(s.accuracies).tolist(),
+                        }
+                        for s in part.scored
+                    ],
+                    "fits": [r.to_dict() for r in part.fits],
+                }
+                for part in self.shares
+            ]
+        )
+
+    @classmethod
+    def from_json(cls, text: str) -> FitResult:
+        """The results :meth:`to_json` wrote (typed records)."""
+        return cls(
+            [
+                TaskResults(
+                    [
+                        Scored(
+                            from_dict(s["record"]),
+                            np.asarray(s["accuracies"], dtype=np.float64),
+                        )
+                        for s in part["scored"]
+                    ],
+                    [from_dict(r) for r in part["fits"]],
+                )
+                for part in json.loads(text)
+            ]
+        )
+
+
+class FitCache(TypingProtocol):
+    """Where :func:`run_task_sets` keeps each finished fit (one method on one
+    :class:`FitGroup`) and finds it again after an interruption."""
+
+    def load(self, group: FitGroup, name: str) -> FitResult | None: ...
+
+    def save(self, group: FitGroup, name: str, result: FitResult) -> None: ...
+
 
 def run_fit(
     group: FitGroup,
@@ -436,6 +487,7 @@ def run_task_sets(
     workers: int = 1,
     threads: int | None = None,
     on_done: Callable[[int, TaskResults], None] | None = None,
+    fit_cache: FitCache | None = None,
 ) -> SetResults:
     """Run several sets of tasks (a protocol's each) through one queue of fits: every
     method fitted once per fit group (:func:`plan_fits`), every cell of every task
@@ -447,6 +499,9 @@ def run_task_sets(
     its share of the CPUs). A set's results, and their order (task, method, cell), do not
     depend on ``workers``; their bits depend on the threads each fit ran with.
     on_fit(task, method name, fitted): called after each fit (one process only).
+    fit_cache: each fit's results are saved there as soon as it finishes, and a fit
+    found there is not run again (nor passed to ``on_fit``): an interrupted run loses
+    only the fits that were running.
     """
     check_int("workers", workers, minimum=1)
     features = features or Features()
@@ -496,20 +551,34 @@ def run_task_sets(
     desc = task_sets[0][0].protocol if len(task_sets) == 1 and task_sets[0] else "benchmark"
     # disable=None: quiet when stderr is not a TTY.
     bar = tqdm(total=total, desc=desc, disable=None if progress else True, leave=False)
-    processes = fit_processes(workers, len(jobs)) if jobs else 0
+    todo = []
+    for g, name in jobs:
+        cached = None if fit_cache is None else fit_cache.load(groups[g], name)
+        if cached is None:
+            todo.append((g, name))
+        else:
+            finished((g, name), cached)
+            bar.update(groups[g].cells_of(name))
+
+    def keep(job: tuple[int, str], result: FitResult) -> None:
+        if fit_cache is not None:
+            fit_cache.save(groups[job[0]], job[1], result)
+        finished(job, result)
+
+    processes = fit_processes(workers, len(todo)) if todo else 0
     try:
         if processes <= 1:
-            for g, name in jobs:
-                finished((g, name), run_fit(groups[g], name, features, bar=bar, on_fit=on_fit))
+            for g, name in todo:
+                keep((g, name), run_fit(groups[g], name, features, bar=bar, on_fit=on_fit))
         else:
             if on_fit is not None:
                 raise ValueError("on_fit needs the fits in this process: use workers=1")
             from .workers import run_fits
 
             for (g, name), result in run_fits(
-                groups, jobs, features, workers=processes, threads=threads
+                groups, todo, features, workers=processes, threads=threads
             ):
-                finished((g, name), result)
+                keep((g, name), result)
                 bar.set_postfix_str(f"{name} {groups[g].first.protocol} {groups[g].first.name}")
                 bar.update(groups[g].cells_of(name))
     finally:

@@ -4,9 +4,10 @@ report) and ``run`` (generate the datasets from nothing, then ``benchmark all``)
 This module only orchestrates. Every protocol goes through the same loop
 (:func:`run_protocols`): its tasks come from the protocol (:mod:`benchmark.protocols`),
 the engine (:mod:`benchmark.engine`) fits and evaluates, and its records are saved as a
-checkpoint (:mod:`benchmark.checkpoints`) as soon as it completes, so interruptions lose
-nothing already finished. Budgets live in :mod:`benchmark.budget`, the run plan and the
-dataset generation in :mod:`benchmark.plan`, the interpretability analysis in
+checkpoint (:mod:`benchmark.checkpoints`) as soon as it completes, and each fit as soon as
+it finishes, so interruptions lose nothing already finished. Budgets live in
+:mod:`benchmark.budget`, the run plan and the dataset generation in
+:mod:`benchmark.plan`, the interpretability analysis in
 :mod:`benchmark.interpret`, figures and their captions in :mod:`benchmark.figures`, the
 output directories in :mod:`benchmark.outputs`.
 """
@@ -127,6 +128,10 @@ def run_protocols(
             checkpoints.save(out, protocol.name, key, found[i])
             log(progress, f"{protocol.name}: done ({time.perf_counter() - start:.0f} s)")
 
+        fits = checkpoints.FitCheckpoints(out, [key for _, _, key, _ in pending])
+        kept = len(list(fits.directory.glob("*.json"))) if fits.directory.is_dir() else 0
+        if kept:
+            log(progress, f"{kept} finished fits in {fits.directory}: reused where unchanged")
         processes = run_task_sets(
             [tasks for _, _, _, tasks in pending],
             methods,
@@ -134,7 +139,9 @@ def run_protocols(
             progress=progress,
             workers=workers,
             on_done=done,
+            fit_cache=fits,
         ).processes
+        fits.clear()
     return ProtocolRuns([r for i in range(len(protocols)) for r in found[i]], processes)
 
 

@@ -42,13 +42,10 @@ from .engine import (
     FitGroup,
     FitResult,
     Pool,
-    Scored,
     Share,
     Task,
-    TaskResults,
     run_fit,
 )
-from .results import from_dict
 
 _ARRAYS = ("signals", "shape", "material", "label", "force_n", "speed_mm_s", "seed")
 
@@ -124,36 +121,6 @@ def _job_json(group: FitGroup, name: str, refs: dict[int, str]) -> str:
     return json.dumps({"method": name, "methods": list(group.methods), "shares": shares})
 
 
-def _result_json(result: FitResult) -> str:
-    return json.dumps(
-        [
-            {
-                "scored": [
-                    {"record": s.record.to_dict(), "accuracies": np.asarray(s.accuracies).tolist()}
-                    for s in part.scored
-                ],
-                "fits": [r.to_dict() for r in part.fits],
-            }
-            for part in result.shares
-        ]
-    )
-
-
-def _result(text: str) -> FitResult:
-    return FitResult(
-        [
-            TaskResults(
-                [
-                    Scored(from_dict(s["record"]), np.asarray(s["accuracies"], dtype=np.float64))
-                    for s in part["scored"]
-                ],
-                [from_dict(r) for r in part["fits"]],
-            )
-            for part in json.loads(text)
-        ]
-    )
-
-
 # -- the worker side ------------------------------------------------------------------------
 _directory: Path | None = None
 _opened: dict[str, tuple[Dataset, np.ndarray]] = {}
@@ -179,7 +146,7 @@ def _run_job(payload: str) -> str:
         ),
         tuple(job["methods"]),
     )
-    return _result_json(run_fit(group, job["method"], features))
+    return run_fit(group, job["method"], features).to_json()
 
 
 # -- the run's side -------------------------------------------------------------------------
@@ -231,7 +198,7 @@ def run_fits(
                 # A timeout, so that Ctrl-C is seen at once while the workers are busy.
                 finished, pending = cf.wait(pending, timeout=0.5, return_when=cf.FIRST_COMPLETED)
                 for future in finished:
-                    yield futures[future], _result(future.result())
+                    yield futures[future], FitResult.from_json(future.result())
         except BaseException:
             for future in futures:
                 future.cancel()

@@ -671,7 +671,7 @@ def test_an_interrupted_benchmark_says_what_is_kept_and_how_to_continue(
     monkeypatch.setattr(single, "benchmark_protocol", interrupted)
     args = ["benchmark", "closed-set", "--data", out, "--out", new, "--overwrite"]
     code, _, err = cli(args, capsys)
-    assert code == 130 and f"protocols finished are kept in {new}/checkpoints" in err
+    assert code == 130 and f"protocols and fits finished are kept in {new}/checkpoints" in err
     assert f"`tactile-synth benchmark closed-set --data {out} --out {new}` continues" in err
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # handed back
 

@@ -143,6 +143,48 @@ def test_checkpoints_are_recomputed_after_an_edit_to_a_plugin_file(datasets, tmp
     assert len(ran) == 3, "a checkpoint made by other plug-in code was reused"
 
 
+def test_an_interrupted_run_keeps_its_finished_fits(datasets, tmp_path, monkeypatch):
+    """Each fit is checkpointed as it finishes: a run interrupted part-way through its
+    protocols continues with the fits that were not finished, gives the records of an
+    uninterrupted run, and deletes the fit checkpoints once every protocol is saved."""
+    import benchmark.engine as engine
+    import benchmark.run as run_mod
+    from benchmark.protocols import get
+
+    data, pert = datasets
+    protocols = [get("cross-shape"), get("perturbation")]
+    kw = dict(methods=["AFOP-ML", "Direct-Prot-ML"], budget=Budget(default=5), seed=0)
+    kw.update(progress=False, features=Features(), workers=1)
+    whole = run_mod.run_protocols(protocols, data, pert, tmp_path / "whole", **kw).records
+
+    real = engine.run_fit
+    calls = []
+
+    def counted(*a, interrupt_at=None, **k):
+        calls.append(a[1])
+        if len(calls) == interrupt_at:
+            raise KeyboardInterrupt
+        return real(*a, **k)
+
+    out = tmp_path / "out"
+    monkeypatch.setattr(engine, "run_fit", lambda *a, **k: counted(*a, interrupt_at=4, **k))
+    with pytest.raises(KeyboardInterrupt):
+        run_mod.run_protocols(protocols, data, pert, out, **kw)
+    fits = out / "checkpoints" / "fits"
+    assert len(list(fits.glob("*.json"))) == 3  # the three fits before the interrupt
+    # A damaged fit checkpoint counts as none: that fit runs again.
+    damaged = sorted(fits.glob("*.json"))[0]
+    damaged.write_text(damaged.read_text()[:-10])
+    calls.clear()
+    monkeypatch.setattr(engine, "run_fit", lambda *a, **k: counted(*a, **k))
+    resumed = run_mod.run_protocols(protocols, data, pert, out, **kw).records
+    # 3 cross-shape folds and 1 perturbation fit, for each of the 2 methods: 8 fits, of
+    # which the 2 intact checkpoints are reused.
+    assert len(calls) == 6
+    assert comparable([r.to_dict() for r in resumed]) == comparable([r.to_dict() for r in whole])
+    assert not fits.exists()
+
+
 def test_benchmark_all_validates_inputs(datasets, tmp_path):
     data, pert = datasets
     with pytest.raises(ValueError, match="AFOP-ML"):
