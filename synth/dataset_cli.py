@@ -169,7 +169,10 @@ def config_from_args(args: argparse.Namespace) -> Any:
     elif resume:
         if not overrides:
             return None  # the stored grid (of the dataset, or of its unfinished replacement)
+        from .generation import check_resume_target
+
         out = Path(args.out)
+        check_resume_target(out, repair=args.repair)
         pending = store.pending_path(out)
         config = store.stored_config(pending if store.is_store(pending) else out)
     else:

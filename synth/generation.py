@@ -296,6 +296,22 @@ def _check_same(requested: GenerationConfig, stored: GenerationConfig, where: st
         )
 
 
+def check_resume_target(out: Path, *, repair: bool = False) -> None:
+    """A one-line :class:`synth.store.DatasetError` naming ``--out`` when ``--resume``
+    (or ``--repair``) is given a directory of other files: no dataset there, and no
+    interrupted replacement of one beside it, to continue."""
+    out = Path(out)
+    if store.is_store(out) or store.is_store(store.pending_path(out)):
+        return
+    if out.is_dir() and any(out.iterdir()):
+        flag = "--resume --repair" if repair else "--resume"
+        raise store.DatasetError(
+            f"--out {out}: not a tactile-synth dataset (no zarr.json in it)",
+            f"{flag} continues a dataset written by `tactile-synth generate`: give its path, "
+            f"or drop {flag} and choose an empty or new --out to start one",
+        )
+
+
 def _has_meta(path: Path) -> bool:
     """A store whose creation finished (it has its ``tactile_synth`` attributes)."""
     try:
@@ -395,6 +411,8 @@ def prepare(
     occupied = out.exists() and any(out.iterdir())
     if resume and _has_meta(pending):
         return _resume_job(config, out, pending, repair=repair)
+    if resume:
+        check_resume_target(out, repair=repair)
     if resume and occupied:
         return _resume_job(config, out, out, repair=repair)
     if resume and config is None:

@@ -706,6 +706,27 @@ def test_benchmark_refuses_a_foreign_output_directory(complete, capsys, tmp_path
     assert len(load_dataset(inner)) == 12
 
 
+@pytest.mark.parametrize(
+    "extra",
+    [[], ["--trials-per-class", "2"], ["--repair"]],
+    ids=["stored-grid", "grid-options", "repair"],
+)
+def test_resume_of_a_directory_that_is_no_dataset_names_out(tmp_path, capsys, extra):
+    folder = tmp_path / "papers"
+    folder.mkdir()
+    (folder / "thesis.tex").write_text("precious")
+    code, _, err = cli(["generate", "--resume", "--out", folder, *extra], capsys)
+    line = one_line(err)
+    flag = "--resume --repair" if extra == ["--repair"] else "--resume"
+    assert code == 2
+    assert line.startswith(
+        f"tactile-synth generate: error: --out {folder}: not a tactile-synth dataset (no "
+    )
+    assert f"drop {flag} and choose an empty or new --out" in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["papers"]  # no lock file left
+    assert [p.name for p in folder.iterdir()] == ["thesis.tex"]
+
+
 def test_run_refuses_a_given_dataset_inside_its_output_directory(tmp_path, capsys):
     runs = tmp_path / "runs"
     runs.mkdir()
