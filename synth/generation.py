@@ -38,6 +38,7 @@ from tactile_synth.threads import available_cpus, init_worker, rollout_threads, 
 
 from . import atomic, store
 from .presets import GenerationConfig, plan, preset
+from .progress import progress as show_progress
 from .summary import counted
 from .trial import TrialSpec
 
@@ -483,7 +484,9 @@ def generate(
     must see ``out``. resume: complete an interrupted store (or an interrupted overwrite)
     without recomputing its finished chunks; it refuses a store with damaged chunks unless
     ``repair``, which re-simulates exactly those. overwrite: build a new store beside
-    ``out`` and put it in place when complete. Returns ``out``. Raises
+    ``out`` and put it in place when complete. progress: report the trials done on
+    stderr (:func:`synth.progress.progress`: a bar on a terminal, plain lines
+    elsewhere). Returns ``out``. Raises
     :class:`synth.store.DatasetLocked` at once if another process is writing ``out``.
     """
     out = Path(out)
@@ -556,14 +559,11 @@ def _run(
         task = _run_chunk_on_worker
         in_flight = 2 * max(workers, 1)
 
-    from tqdm import tqdm
-
-    bar = tqdm(
-        total=len(trials),
-        initial=done_trials,
-        unit="trial",
+    bar = show_progress(
+        len(trials),
         desc=f"generate {config.preset}",
-        disable=None if progress else True,  # None: quiet when stderr is not a TTY
+        initial=done_trials,
+        enabled=progress,
         smoothing=0.1,
     )
     pending: set[cf.Future] = set()
