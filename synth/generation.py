@@ -244,19 +244,24 @@ def check_resources(config: GenerationConfig, out: Path, *, workers: int, local:
             f"{_fmt_bytes(disk)} on disk, but {where} has {_fmt_bytes(free)} free; "
             f"make the grid smaller or choose another --out"
         )
-    in_flight = 2 * max(workers, 1)
+    # As _run schedules them: two chunks per worker at a time, no more than the grid
+    # has, and locally no more processes than chunks.
+    if local:
+        workers = min(workers, config.n_chunks)
+    in_flight = min(2 * max(workers, 1), config.n_chunks)
+    per_chunk = min(config.chunk_trials, n)
     memory = (
         n * _PLAN_BYTES_PER_TRIAL
-        + in_flight * min(config.chunk_trials, n) * store.TRIAL_BYTES * 4
+        + in_flight * per_chunk * store.TRIAL_BYTES * 4
         + (workers * _WORKER_BYTES if local and workers > 1 else 0)
     )
     have = available_memory()
     if memory > have:
         raise ValueError(
             f"the run needs about {_fmt_bytes(memory)} of memory ({grid}, "
-            f"{in_flight} chunks of {config.chunk_trials} trials in flight, {workers} workers) "
-            f"but {_fmt_bytes(have)} is available; lower --trials-per-class, "
-            f"--chunk-trials or --workers"
+            f"{counted(in_flight, 'chunk')} of {counted(per_chunk, 'trial')} in flight, "
+            f"{counted(workers, 'worker')}) but {_fmt_bytes(have)} is available; lower "
+            f"--trials-per-class, --chunk-trials or --workers"
         )
 
 

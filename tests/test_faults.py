@@ -489,6 +489,16 @@ def test_a_grid_larger_than_the_free_disk_is_refused_with_the_estimate(tmp_path,
     assert list(tmp_path.iterdir()) == []
 
 
+def test_memory_refusal_counts_the_chunks_a_small_grid_really_has(tmp_path, monkeypatch):
+    monkeypatch.setattr(generation, "available_memory", lambda: 1000)
+    config = tiny(trials_per_class=2, forces_n=(1.0,), chunk_trials=36)  # 4 trials
+    with pytest.raises(
+        ValueError, match=r"\(4 trials .*, 1 chunk of 4 trials in flight, 1 worker\)"
+    ):
+        generation.generate(config, tmp_path / "ds", workers=3, progress=False)
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_huge_episode_counts_are_refused_before_any_work(complete, capsys, tmp_path):
     out, _ = complete
     for n, expect in (("1000000000000", "at most 100,000"), ("0", "must be >= 1")):
