@@ -13,6 +13,7 @@ from typing import Any
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
+    from shapes.validation import float_arg, int_arg
     from tactile_synth.threads import HELP as THREADS_HELP
 
     from .export import EXPORT_FORMATS
@@ -92,20 +93,24 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, help="dataset path (a Zarr store directory)")
     p.add_argument(
         "--sample-rate",
-        type=float,
+        type=float_arg,
         metavar="HZ",
         help="sample rate of recordings that state none (labels column sample_rate_hz, "
         "NPZ array sample_rate_hz or a time_s column)",
     )
     p.add_argument(
         "--window-start",
-        type=float,
+        type=float_arg,
         metavar="S",
         help="start of every 2 s window in seconds from the recording's first sample "
         "(default: centred on the contact phase found in sg1/sg2)",
     )
     p.add_argument(
-        "--chunk-trials", type=int, default=36, metavar="N", help="trials per chunk (default 36)"
+        "--chunk-trials",
+        type=int_arg,
+        default=36,
+        metavar="N",
+        help="trials per chunk (default 36)",
     )
     p.add_argument(
         "--overwrite",

@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from shapes import SHAPE_NAMES
-from shapes.validation import check_choice, check_int
+from shapes.validation import check_choice, check_int, parse_number
 
 from . import atomic, store
 from .materials import MATERIAL_NAMES
@@ -156,9 +156,9 @@ class LabelRow:
 
 def _number(text: str, column: str) -> float:
     try:
-        value = float(text)
-    except ValueError:
-        raise _Bad(f"column {column}: {text!r} is not a number") from None
+        value = parse_number(text, float)
+    except ValueError as exc:
+        raise _Bad(f"column {column}: {exc}") from None
     if not math.isfinite(value):
         raise _Bad(f"column {column}: {text!r} is not a finite number")
     return value
@@ -166,9 +166,9 @@ def _number(text: str, column: str) -> float:
 
 def _integer(text: str, column: str, maximum: int) -> int:
     try:
-        value = int(text)
-    except ValueError:
-        raise _Bad(f"column {column}: {text!r} is not a whole number") from None
+        value = parse_number(text, int)
+    except ValueError as exc:
+        raise _Bad(f"column {column}: {exc}") from None
     if not 0 <= value <= maximum:
         raise _Bad(f"column {column} must be in 0..{maximum}; got {value}")
     return value
@@ -454,11 +454,9 @@ def _parse_csv_rows(body: list[str], names: list[str], shown: str) -> np.ndarray
             if not text:
                 raise _Bad(f"{shown} line {line}, column {names[j]} is empty")
             try:
-                out[i, j] = float(text)
-            except ValueError:
-                raise _Bad(
-                    f"{shown} line {line}, column {names[j]}: {text!r} is not a number"
-                ) from None
+                out[i, j] = parse_number(text, float)
+            except ValueError as exc:
+                raise _Bad(f"{shown} line {line}, column {names[j]}: {exc}") from None
     return out
 
 

@@ -335,6 +335,22 @@ def _non_numeric(d):
     (d / "t1.csv").write_text("\n".join(lines) + "\n")
 
 
+def _underscored_sample(d):
+    lines = (d / "t1.csv").read_text().splitlines()
+    cells = lines[4].split(",")
+    cells[1] = "1_0"  # float("1_0") is 10.0
+    lines[4] = ",".join(cells)
+    (d / "t1.csv").write_text("\n".join(lines) + "\n")
+
+
+def _underscored_seed(d):
+    lines = (d / "labels.csv").read_text().splitlines()
+    seeds = ["seed", "1", "2_000", "3"]  # int("2_000") is 2000
+    (d / "labels.csv").write_text(
+        "\n".join(f"{line},{seed}" for line, seed in zip(lines, seeds, strict=True)) + "\n"
+    )
+
+
 def _short_row(d):
     lines = (d / "t1.csv").read_text().splitlines()
     lines[9] = ",".join(lines[9].split(",")[:3])
@@ -426,6 +442,10 @@ BAD_CASES = {
     "wrong channel count": (_bad_channels, ["t1.csv line 1 names 3 channels", "missing: sg2"]),
     "NaN sample": (_nan, ["t1.csv line 813, column sg1: nan"]),
     "non-numeric cell": (_non_numeric, ["t1.csv line 5, column pvdf2: 'abc' is not a number"]),
+    "underscore in a sample": (
+        _underscored_sample,
+        ["t1.csv line 5, column pvdf2: '1_0' is not a number (underscores are not accepted"],
+    ),
     "row with too few values": (_short_row, ["t1.csv line 10 has 3 values"]),
     "too short": (_too_short, ["t1.csv is 1.500 s long", "window of 2 s"]),
     "NPZ channel count": (_npz_channels, ["t1.npz holds 3 of the 4 channel arrays"]),
@@ -454,6 +474,14 @@ BAD_CASES = {
     "non-numeric force": (
         _replace_in_labels(2, ",1,10", ",heavy,10"),
         ["labels.csv line 2: column force_n: 'heavy' is not a number"],
+    ),
+    "underscore in a speed": (
+        _replace_in_labels(2, ",1,10", ",1,1_0"),
+        ["labels.csv line 2: column speed_mm_s: '1_0' is not a number (underscores are not"],
+    ),
+    "underscore in a seed": (
+        _underscored_seed,
+        ["labels.csv line 3: column seed: '2_000' is not a whole number (underscores are not"],
     ),
     "duplicate file": (_duplicate_file, ["labels.csv line 5: file t1.csv is listed again"]),
     "missing file": (_missing_file, ["labels.csv line 4: file t2.csv does not exist"]),
@@ -488,6 +516,30 @@ def test_bad_input_is_named_by_file_and_line_and_leaves_nothing(tmp_path, capsys
     for w in words:
         assert w in err, err
     assert not (tmp_path / "sub").exists()  # not even the directory made for the lock
+
+
+@pytest.mark.parametrize(
+    ("option", "value", "words"),
+    [
+        ("--sample-rate", "1_000", "'1_000' is not a number (underscores are not accepted: "
+         "write '1000' if that is the number meant)"),
+        ("--window-start", "0_5", "'0_5' is not a number (underscores are not accepted"),
+        ("--chunk-trials", "1_0", "'1_0' is not a whole number (underscores are not accepted"),
+        ("--chunk-trials", "ten", "invalid int value: 'ten'"),  # as every integer option says
+    ],
+)  # fmt: skip
+def test_numeric_options_refuse_underscores_naming_the_option(
+    tmp_path, capsys, option, value, words
+):
+    recs = tmp_path / "recs"
+    small(recs)
+    out = tmp_path / "data"
+    with pytest.raises(SystemExit) as exc:
+        main(["import", str(recs), "--out", str(out), option, value])
+    assert exc.value.code == 2
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert last.startswith(f"tactile-synth import: error: argument {option}: {words}"), last
+    assert not out.exists()
 
 
 def test_failed_overwrite_keeps_the_previous_dataset(tmp_path):
