@@ -217,6 +217,8 @@ def _saved(out: Path) -> str | None:
 
 
 def _generate(args: argparse.Namespace) -> int:
+    from tactile_synth.interrupts import terminate_as_interrupt
+
     from . import store
     from .generation import generate
     from .simulator import SimulationError
@@ -236,16 +238,17 @@ def _generate(args: argparse.Namespace) -> int:
         workers = workers or max(len(client.scheduler_info()["workers"]), 1)
     start = time.perf_counter()
     try:
-        generate(
-            config,
-            out,
-            workers=workers,
-            threads=args.threads,
-            executor=executor,
-            resume=args.resume,
-            overwrite=args.overwrite,
-            repair=args.repair,
-        )
+        with terminate_as_interrupt():  # `kill` stops at a chunk boundary, as Ctrl-C does
+            generate(
+                config,
+                out,
+                workers=workers,
+                threads=args.threads,
+                executor=executor,
+                resume=args.resume,
+                overwrite=args.overwrite,
+                repair=args.repair,
+            )
     except KeyboardInterrupt:
         saved = _saved(out)
         if saved is None:

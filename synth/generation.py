@@ -141,7 +141,9 @@ def run_chunk(
 
 
 class _StopRequests:
-    """Ctrl-C during generation: the first SIGINT asks to stop at the next chunk boundary.
+    """Ctrl-C during generation: the first SIGINT asks to stop at the next chunk boundary
+    (so does SIGTERM under :func:`tactile_synth.interrupts.terminate_as_interrupt`, as
+    the CLI runs it).
 
     A ``KeyboardInterrupt`` raised at an arbitrary bytecode can land inside a lock's
     ``with`` block of ``concurrent.futures`` or zarr's IO thread and leave the interpreter
@@ -166,8 +168,10 @@ class _StopRequests:
         if self.requested:
             raise KeyboardInterrupt
         self.requested = True
+        # On a terminal the notice starts a new line after the progress bar's.
         print(
-            "\ntactile-synth generate: stopping after the running chunks (Ctrl-C again: now)",
+            ("\n" if sys.stderr.isatty() else "")
+            + "tactile-synth generate: stopping after the running chunks (Ctrl-C again: now)",
             file=sys.stderr,
             flush=True,
         )
