@@ -308,7 +308,7 @@ def _import(args: argparse.Namespace) -> int:
             )
     except KeyboardInterrupt:
         print(
-            f"tactile-synth import: interrupted; nothing was imported ({args.out} is as it "
+            f"tactile-synth import: interrupted; nothing was written ({args.out} is as it "
             f"was); run the same command again",
             file=sys.stderr,
         )

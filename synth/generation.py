@@ -24,8 +24,6 @@ import multiprocessing
 import os
 import shutil
 import signal
-import sys
-import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -34,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from shapes.validation import check_int
+from tactile_synth.interrupts import StopRequests
 from tactile_synth.threads import available_cpus, init_worker, rollout_threads, worker_threads
 
 from . import atomic, store
@@ -138,51 +137,6 @@ def run_chunk(
     signals = np.ascontiguousarray(signals, dtype=np.float32)
     store.write_chunk(path, chunk, signals, specs, store_id)
     return chunk, len(specs), time.process_time() - cpu
-
-
-class _StopRequests:
-    """Ctrl-C during generation: the first SIGINT asks to stop at the next chunk boundary
-    (so does SIGTERM under :func:`tactile_synth.interrupts.terminate_as_interrupt`, as
-    the CLI runs it).
-
-    A ``KeyboardInterrupt`` raised at an arbitrary bytecode can land inside a lock's
-    ``with`` block of ``concurrent.futures`` or zarr's IO thread and leave the interpreter
-    unable to exit; a flag checked between chunks cannot. A second Ctrl-C raises at once
-    (finished chunks are on disk either way). Outside the main thread this does nothing.
-    """
-
-    def __init__(self) -> None:
-        self.requested = False
-        self._previous: Any = None
-
-    def __enter__(self) -> _StopRequests:
-        if threading.current_thread() is threading.main_thread():
-            self._previous = signal.getsignal(signal.SIGINT)
-            if self._previous is signal.default_int_handler:
-                signal.signal(signal.SIGINT, self._handle)
-            else:  # the caller handles SIGINT its own way: leave it alone
-                self._previous = None
-        return self
-
-    def _handle(self, signum: int, frame: Any) -> None:
-        if self.requested:
-            raise KeyboardInterrupt
-        self.requested = True
-        # On a terminal the notice starts a new line after the progress bar's.
-        print(
-            ("\n" if sys.stderr.isatty() else "")
-            + "tactile-synth generate: stopping after the running chunks (Ctrl-C again: now)",
-            file=sys.stderr,
-            flush=True,
-        )
-
-    def check(self) -> None:
-        if self.requested:
-            raise KeyboardInterrupt
-
-    def __exit__(self, *exc: object) -> None:
-        if self._previous is not None:
-            signal.signal(signal.SIGINT, self._previous)
 
 
 def _init_worker(threads: int) -> None:
@@ -577,7 +531,10 @@ def _run(
     )
     pending: set[cf.Future] = set()
     queue = iter(todo)
-    stop = _StopRequests()
+    # Ctrl-C (and SIGTERM, as the CLI runs it) stops at the next chunk boundary.
+    stop = StopRequests(
+        "tactile-synth generate: stopping after the running chunks (Ctrl-C again: now)"
+    )
     target = str(job.target)
     try:
         with stop:

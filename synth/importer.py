@@ -36,6 +36,7 @@ import numpy as np
 
 from shapes import SHAPE_NAMES
 from shapes.validation import check_choice, check_int, parse_number
+from tactile_synth.interrupts import StopRequests
 
 from . import atomic, store
 from .materials import MATERIAL_NAMES
@@ -881,22 +882,34 @@ def import_recordings(
             )
         _check_disk(out, len(rows))
         if pending.exists():
-            shutil.rmtree(pending)  # an unfinished replacement: this import replaces it
+            # The unfinished copy of an import or generation that was killed (or stopped
+            # by a second Ctrl-C): this import replaces it.
+            shutil.rmtree(pending)
+            warnings.warn(
+                f"removed {pending}, the unfinished copy an interrupted import or generation "
+                f"of {out} left beside it",
+                RecordingWarning,
+                stacklevel=2,
+            )
         options = {
             "sample_rate_hz": sample_rate_hz,
             "window_start_s": window_start_s,
             "chunk_trials": chunk_trials,
         }
-        try:
-            summary = _build(pending, rows, recordings, labels, options, progress)
-            if occupied:
-                atomic.replace_dir(pending, out)
-            else:
-                os.rename(pending, out)  # out is absent or an empty directory
-                atomic.fsync_dir(out.parent)
-        except BaseException:
-            shutil.rmtree(pending, ignore_errors=True)
-            raise
+        # Ctrl-C stops between recordings and chunks, never inside a zarr write: zarr's IO
+        # thread would finish that write after the copy below was removed, and leave it.
+        with StopRequests() as stop:
+            try:
+                summary = _build(pending, rows, recordings, labels, options, progress, stop.check)
+                stop.check()
+                if occupied:
+                    atomic.replace_dir(pending, out)
+                else:
+                    os.rename(pending, out)  # out is absent or an empty directory
+                    atomic.fsync_dir(out.parent)
+            except BaseException:
+                shutil.rmtree(pending, ignore_errors=True)
+                raise
     summary.path = out
     unlisted = _unlisted(recordings, rows, labels)
     if unlisted:
@@ -948,10 +961,12 @@ def _build(
     labels: Path,
     options: dict[str, Any],
     progress: bool,
+    stop: Callable[[], None] = lambda: None,
 ) -> ImportSummary:
     """Write the whole imported store at ``target`` (absent), or raise
     :class:`RecordingError` with every bad recording (``target`` then holds junk that
-    the caller deletes)."""
+    the caller deletes). ``stop`` is called before each recording is read and after each
+    chunk is written (it raises to stop the import there)."""
     from tqdm import tqdm
 
     order = _store_order(rows)
@@ -981,6 +996,7 @@ def _build(
         for k in range(-(-n // c)):
             batch = np.zeros((min(c, n - k * c), len(CHANNELS), N_SAMPLES), dtype=np.float32)
             for j in range(batch.shape[0]):
+                stop()
                 i = k * c + j
                 row = order.rows[i]
                 shown = str(recordings / row.file)
@@ -1036,6 +1052,7 @@ def _build(
                 for r, s in zip(order.rows[rs], seeds[rs], strict=True)
             ]
             store.write_chunk(target, k, batch, specs, store_id)
+            stop()
     finally:
         bar.close()
     if problems:

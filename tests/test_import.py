@@ -676,7 +676,7 @@ def test_ctrl_c_leaves_nothing(tmp_path, monkeypatch, capsys):
     argv = ["import", str(recs), "--out", str(out), "--sample-rate", "1000", "--chunk-trials", "1"]
     assert main(argv) == 130
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "interrupted; nothing was imported" in err
+    assert len(err.splitlines()) == 1 and "interrupted; nothing was written" in err
     assert not (tmp_path / "sub").exists()  # chunk 0 was written, yet nothing is left
 
 
@@ -695,6 +695,78 @@ def test_ctrl_c_during_overwrite_keeps_the_previous_dataset(tmp_path, monkeypatc
     assert after.attrs["store_id"] == before.attrs["store_id"]
     assert np.array_equal(after.signals, before.signals)
     assert leftovers(tmp_path, out) == ["data"]
+
+
+CTRL_C_IN_A_ZARR_WRITE = """
+import asyncio, os, signal, sys, threading, time
+from pathlib import Path
+from zarr.storage import LocalStore
+from synth import store
+from tactile_synth.entry import main
+
+out = Path(sys.argv[sys.argv.index("--out") + 1])
+pending = store.pending_path(out)
+real_set = LocalStore.set
+written = threading.Event()
+
+async def set_interrupted(self, key, value):
+    # Ctrl-C while zarr's IO thread writes chunk 1's signals. The file is written once
+    # the import has removed its unfinished copy, or after 2 s if it keeps it.
+    if key.startswith("signals/c/1/") and not written.is_set():
+        os.kill(os.getpid(), signal.SIGINT)
+        deadline = time.monotonic() + 2
+        while pending.exists() and time.monotonic() < deadline:
+            await asyncio.sleep(0.01)
+        try:
+            return await real_set(self, key, value)
+        finally:
+            written.set()
+    return await real_set(self, key, value)
+
+LocalStore.set = set_interrupted
+sys.argv[0] = "tactile-synth"
+code = main()
+written.wait(30)  # what zarr's IO thread still does for the interrupted import
+sys.exit(code)
+"""
+
+
+@pytest.mark.parametrize("previous", [False, True])
+def test_ctrl_c_in_a_zarr_write_leaves_no_unfinished_copy(tmp_path, previous):
+    """A real SIGINT while zarr writes a chunk: the import stops after that write, so
+    the unfinished copy beside ``--out`` is removed after zarr's last file, not before."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    recs = tmp_path / "recs"
+    small(recs)
+    out = tmp_path / "data"
+    if previous:
+        import_recordings(recs, out, sample_rate_hz=1000, progress=False)
+        before = load_dataset(out)
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    argv = ["import", str(recs), "--out", str(out), "--sample-rate", "1000", "--chunk-trials",
+            "1", "--overwrite"]  # fmt: skip
+    proc = subprocess.run(
+        [sys.executable, "-c", CTRL_C_IN_A_ZARR_WRITE, *argv],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        # a background job of a non-interactive shell inherits SIGINT ignored
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    assert proc.returncode == 130, proc.stderr
+    assert proc.stderr.strip().splitlines()[-1] == (
+        f"tactile-synth import: interrupted; nothing was written ({out} is as it was); run "
+        f"the same command again"
+    )
+    assert leftovers(tmp_path, out) == (["data"] if previous else [])
+    if previous:
+        after = load_dataset(out)
+        assert after.attrs["store_id"] == before.attrs["store_id"]
 
 
 KILLED_IMPORT = """
@@ -745,7 +817,8 @@ def test_killed_import_leaves_no_dataset_and_the_next_one_cleans_up(tmp_path, pr
         assert not out.exists()
         with pytest.raises(FileNotFoundError, match=r"interrupted import .* run your"):
             load_dataset(out)
-    import_recordings(recs, out, sample_rate_hz=1000, overwrite=True, progress=False)
+    with pytest.warns(RecordingWarning, match=r"^removed .*, the unfinished copy an interr"):
+        import_recordings(recs, out, sample_rate_hz=1000, overwrite=True, progress=False)
     assert load_dataset(out).signals.shape == (3, len(CHANNELS), N_SAMPLES)
     assert leftovers(tmp_path, out) == ["data"]
 
