@@ -5,11 +5,9 @@ from __future__ import annotations
 
 import argparse
 import shlex
-import signal
 import sys
-from collections.abc import Iterator
-from contextlib import contextmanager
 
+from tactile_synth.interrupts import terminate_as_interrupt
 from tactile_synth.threads import HELP as THREADS_HELP
 
 
@@ -93,26 +91,6 @@ def _register_benchmark(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(handler=_benchmark)
 
 
-@contextmanager
-def _terminate_as_interrupt() -> Iterator[None]:
-    """SIGTERM (``kill``, a job scheduler's stop) ends the command as Ctrl-C does: the
-    worker processes are stopped, the unfinished output set removed, the lock released,
-    and the advice printed. Only in the main thread, where Python runs signal handlers."""
-
-    def interrupt(signum: int, frame: object) -> None:
-        raise KeyboardInterrupt
-
-    try:
-        previous = signal.signal(signal.SIGTERM, interrupt)
-    except ValueError:  # not the main thread
-        previous = None
-    try:
-        yield
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
-
-
 def _again(args: argparse.Namespace, fallback: list[str]) -> str:
     """The command line that continues an interrupted ``args``: the same one without
     --overwrite (the interrupted run marked its DIR; --overwrite would start the finished
@@ -126,7 +104,7 @@ def _benchmark(args: argparse.Namespace) -> int:
 
     _check_methods_arg(args.methods)
     try:
-        with _terminate_as_interrupt():
+        with terminate_as_interrupt():
             benchmark_protocol(
                 args.protocol,
                 data_path=args.data,
@@ -208,7 +186,7 @@ def _run(args: argparse.Namespace) -> int:
 
     _check_methods_arg(args.methods)
     try:
-        with _terminate_as_interrupt():
+        with terminate_as_interrupt():
             run(
                 args.out,
                 methods=args.methods,

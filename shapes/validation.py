@@ -10,6 +10,7 @@ import difflib
 import math
 from collections.abc import Iterable
 from numbers import Integral, Real
+from typing import Any
 
 
 def check_choice(arg: str, value: object, choices: Iterable[str]) -> str:
@@ -42,3 +43,44 @@ def check_int(arg: str, value: object, *, minimum: int | None = None) -> int:
     if minimum is not None and value < minimum:
         raise ValueError(f"{arg} must be >= {minimum}; got {value!r}")
     return int(value)
+
+
+def parse_number(text: str, kind: type[int] | type[float] = float) -> Any:
+    """``kind(text)`` (``int`` or ``float``) for a number as a person types it, with
+    Python's digit-group underscores refused: ``int("1_000")`` and ``float("1_000")``
+    accept them, but in a typed option or a CSV cell ``1_000`` is more likely a slip
+    than a grouping. ``ValueError`` ``"'TEXT' is not a number"`` (``a whole number``
+    for ``int``), saying what to write instead of an underscore; callers put the
+    argument or column in front."""
+    noun = "whole number" if kind is int else "number"
+    if "_" in text:
+        raise ValueError(
+            f"{text!r} is not a {noun} (underscores are not accepted: write "
+            f"{text.replace('_', '')!r} if that is the number meant)"
+        )
+    try:
+        return kind(text)
+    except ValueError:
+        raise ValueError(f"{text!r} is not a {noun}") from None
+
+
+def float_arg(text: str) -> float:
+    """An argparse ``type=`` for a float option: :func:`parse_number`, whose refusal
+    argparse reports naming the option."""
+    return _arg(text, float)
+
+
+def int_arg(text: str) -> int:
+    """An argparse ``type=`` for an integer option (see :func:`float_arg`)."""
+    return _arg(text, int)
+
+
+def _arg(text: str, kind: type[int] | type[float]) -> Any:
+    import argparse
+
+    try:
+        return parse_number(text, kind)
+    except ValueError as exc:
+        if "_" not in text:  # argparse's own wording for type=int / type=float
+            raise argparse.ArgumentTypeError(f"invalid {kind.__name__} value: {text!r}") from None
+        raise argparse.ArgumentTypeError(str(exc)) from None

@@ -13,6 +13,7 @@ from typing import Any
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
+    from shapes.validation import float_arg, int_arg
     from tactile_synth.threads import HELP as THREADS_HELP
 
     from .export import EXPORT_FORMATS
@@ -92,20 +93,24 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, help="dataset path (a Zarr store directory)")
     p.add_argument(
         "--sample-rate",
-        type=float,
+        type=float_arg,
         metavar="HZ",
         help="sample rate of recordings that state none (labels column sample_rate_hz, "
         "NPZ array sample_rate_hz or a time_s column)",
     )
     p.add_argument(
         "--window-start",
-        type=float,
+        type=float_arg,
         metavar="S",
         help="start of every 2 s window in seconds from the recording's first sample "
         "(default: centred on the contact phase found in sg1/sg2)",
     )
     p.add_argument(
-        "--chunk-trials", type=int, default=36, metavar="N", help="trials per chunk (default 36)"
+        "--chunk-trials",
+        type=int_arg,
+        default=36,
+        metavar="N",
+        help="trials per chunk (default 36)",
     )
     p.add_argument(
         "--overwrite",
@@ -169,7 +174,10 @@ def config_from_args(args: argparse.Namespace) -> Any:
     elif resume:
         if not overrides:
             return None  # the stored grid (of the dataset, or of its unfinished replacement)
+        from .generation import check_resume_target
+
         out = Path(args.out)
+        check_resume_target(out, repair=args.repair)
         pending = store.pending_path(out)
         config = store.stored_config(pending if store.is_store(pending) else out)
     else:
@@ -209,6 +217,8 @@ def _saved(out: Path) -> str | None:
 
 
 def _generate(args: argparse.Namespace) -> int:
+    from tactile_synth.interrupts import terminate_as_interrupt
+
     from . import store
     from .generation import generate
     from .simulator import SimulationError
@@ -228,16 +238,17 @@ def _generate(args: argparse.Namespace) -> int:
         workers = workers or max(len(client.scheduler_info()["workers"]), 1)
     start = time.perf_counter()
     try:
-        generate(
-            config,
-            out,
-            workers=workers,
-            threads=args.threads,
-            executor=executor,
-            resume=args.resume,
-            overwrite=args.overwrite,
-            repair=args.repair,
-        )
+        with terminate_as_interrupt():  # `kill` stops at a chunk boundary, as Ctrl-C does
+            generate(
+                config,
+                out,
+                workers=workers,
+                threads=args.threads,
+                executor=executor,
+                resume=args.resume,
+                overwrite=args.overwrite,
+                repair=args.repair,
+            )
     except KeyboardInterrupt:
         saved = _saved(out)
         if saved is None:
@@ -297,7 +308,7 @@ def _import(args: argparse.Namespace) -> int:
             )
     except KeyboardInterrupt:
         print(
-            f"tactile-synth import: interrupted; nothing was imported ({args.out} is as it "
+            f"tactile-synth import: interrupted; nothing was written ({args.out} is as it "
             f"was); run the same command again",
             file=sys.stderr,
         )

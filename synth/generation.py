@@ -24,8 +24,6 @@ import multiprocessing
 import os
 import shutil
 import signal
-import sys
-import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -34,10 +32,12 @@ from typing import Any
 import numpy as np
 
 from shapes.validation import check_int
+from tactile_synth.interrupts import StopRequests
 from tactile_synth.threads import available_cpus, init_worker, rollout_threads, worker_threads
 
 from . import atomic, store
 from .presets import GenerationConfig, plan, preset
+from .progress import progress as show_progress
 from .summary import counted
 from .trial import TrialSpec
 
@@ -139,47 +139,6 @@ def run_chunk(
     return chunk, len(specs), time.process_time() - cpu
 
 
-class _StopRequests:
-    """Ctrl-C during generation: the first SIGINT asks to stop at the next chunk boundary.
-
-    A ``KeyboardInterrupt`` raised at an arbitrary bytecode can land inside a lock's
-    ``with`` block of ``concurrent.futures`` or zarr's IO thread and leave the interpreter
-    unable to exit; a flag checked between chunks cannot. A second Ctrl-C raises at once
-    (finished chunks are on disk either way). Outside the main thread this does nothing.
-    """
-
-    def __init__(self) -> None:
-        self.requested = False
-        self._previous: Any = None
-
-    def __enter__(self) -> _StopRequests:
-        if threading.current_thread() is threading.main_thread():
-            self._previous = signal.getsignal(signal.SIGINT)
-            if self._previous is signal.default_int_handler:
-                signal.signal(signal.SIGINT, self._handle)
-            else:  # the caller handles SIGINT its own way: leave it alone
-                self._previous = None
-        return self
-
-    def _handle(self, signum: int, frame: Any) -> None:
-        if self.requested:
-            raise KeyboardInterrupt
-        self.requested = True
-        print(
-            "\ntactile-synth generate: stopping after the running chunks (Ctrl-C again: now)",
-            file=sys.stderr,
-            flush=True,
-        )
-
-    def check(self) -> None:
-        if self.requested:
-            raise KeyboardInterrupt
-
-    def __exit__(self, *exc: object) -> None:
-        if self._previous is not None:
-            signal.signal(signal.SIGINT, self._previous)
-
-
 def _init_worker(threads: int) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when to stop
     init_worker(threads)  # this worker's share of the CPUs, for every thread pool
@@ -243,19 +202,24 @@ def check_resources(config: GenerationConfig, out: Path, *, workers: int, local:
             f"{_fmt_bytes(disk)} on disk, but {where} has {_fmt_bytes(free)} free; "
             f"make the grid smaller or choose another --out"
         )
-    in_flight = 2 * max(workers, 1)
+    # As _run schedules them: two chunks per worker at a time, no more than the grid
+    # has, and locally no more processes than chunks.
+    if local:
+        workers = min(workers, config.n_chunks)
+    in_flight = min(2 * max(workers, 1), config.n_chunks)
+    per_chunk = min(config.chunk_trials, n)
     memory = (
         n * _PLAN_BYTES_PER_TRIAL
-        + in_flight * min(config.chunk_trials, n) * store.TRIAL_BYTES * 4
+        + in_flight * per_chunk * store.TRIAL_BYTES * 4
         + (workers * _WORKER_BYTES if local and workers > 1 else 0)
     )
     have = available_memory()
     if memory > have:
         raise ValueError(
             f"the run needs about {_fmt_bytes(memory)} of memory ({grid}, "
-            f"{in_flight} chunks of {config.chunk_trials} trials in flight, {workers} workers) "
-            f"but {_fmt_bytes(have)} is available; lower --trials-per-class, "
-            f"--chunk-trials or --workers"
+            f"{counted(in_flight, 'chunk')} of {counted(per_chunk, 'trial')} in flight, "
+            f"{counted(workers, 'worker')}) but {_fmt_bytes(have)} is available; lower "
+            f"--trials-per-class, --chunk-trials or --workers"
         )
 
 
@@ -293,6 +257,22 @@ def _check_same(requested: GenerationConfig, stored: GenerationConfig, where: st
             f"{where} was generated with a different configuration "
             f"({', '.join(f'{k}={have.get(k)!r} there, {want.get(k)!r} here' for k in diff)})",
             "resume without grid options, or use --overwrite",
+        )
+
+
+def check_resume_target(out: Path, *, repair: bool = False) -> None:
+    """A one-line :class:`synth.store.DatasetError` naming ``--out`` when ``--resume``
+    (or ``--repair``) is given a directory of other files: no dataset there, and no
+    interrupted replacement of one beside it, to continue."""
+    out = Path(out)
+    if store.is_store(out) or store.is_store(store.pending_path(out)):
+        return
+    if out.is_dir() and any(out.iterdir()):
+        flag = "--resume --repair" if repair else "--resume"
+        raise store.DatasetError(
+            f"--out {out}: not a tactile-synth dataset (no zarr.json in it)",
+            f"{flag} continues a dataset written by `tactile-synth generate`: give its path, "
+            f"or drop {flag} and choose an empty or new --out to start one",
         )
 
 
@@ -395,6 +375,8 @@ def prepare(
     occupied = out.exists() and any(out.iterdir())
     if resume and _has_meta(pending):
         return _resume_job(config, out, pending, repair=repair)
+    if resume:
+        check_resume_target(out, repair=repair)
     if resume and occupied:
         return _resume_job(config, out, out, repair=repair)
     if resume and config is None:
@@ -465,7 +447,9 @@ def generate(
     must see ``out``. resume: complete an interrupted store (or an interrupted overwrite)
     without recomputing its finished chunks; it refuses a store with damaged chunks unless
     ``repair``, which re-simulates exactly those. overwrite: build a new store beside
-    ``out`` and put it in place when complete. Returns ``out``. Raises
+    ``out`` and put it in place when complete. progress: report the trials done on
+    stderr (:func:`synth.progress.progress`: a bar on a terminal, plain lines
+    elsewhere). Returns ``out``. Raises
     :class:`synth.store.DatasetLocked` at once if another process is writing ``out``.
     """
     out = Path(out)
@@ -538,19 +522,19 @@ def _run(
         task = _run_chunk_on_worker
         in_flight = 2 * max(workers, 1)
 
-    from tqdm import tqdm
-
-    bar = tqdm(
-        total=len(trials),
-        initial=done_trials,
-        unit="trial",
+    bar = show_progress(
+        len(trials),
         desc=f"generate {config.preset}",
-        disable=None if progress else True,  # None: quiet when stderr is not a TTY
+        initial=done_trials,
+        enabled=progress,
         smoothing=0.1,
     )
     pending: set[cf.Future] = set()
     queue = iter(todo)
-    stop = _StopRequests()
+    # Ctrl-C (and SIGTERM, as the CLI runs it) stops at the next chunk boundary.
+    stop = StopRequests(
+        "tactile-synth generate: stopping after the running chunks (Ctrl-C again: now)"
+    )
     target = str(job.target)
     try:
         with stop:

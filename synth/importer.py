@@ -35,7 +35,8 @@ from typing import Any
 import numpy as np
 
 from shapes import SHAPE_NAMES
-from shapes.validation import check_choice, check_int
+from shapes.validation import check_choice, check_int, parse_number
+from tactile_synth.interrupts import StopRequests
 
 from . import atomic, store
 from .materials import MATERIAL_NAMES
@@ -156,9 +157,9 @@ class LabelRow:
 
 def _number(text: str, column: str) -> float:
     try:
-        value = float(text)
-    except ValueError:
-        raise _Bad(f"column {column}: {text!r} is not a number") from None
+        value = parse_number(text, float)
+    except ValueError as exc:
+        raise _Bad(f"column {column}: {exc}") from None
     if not math.isfinite(value):
         raise _Bad(f"column {column}: {text!r} is not a finite number")
     return value
@@ -166,9 +167,9 @@ def _number(text: str, column: str) -> float:
 
 def _integer(text: str, column: str, maximum: int) -> int:
     try:
-        value = int(text)
-    except ValueError:
-        raise _Bad(f"column {column}: {text!r} is not a whole number") from None
+        value = parse_number(text, int)
+    except ValueError as exc:
+        raise _Bad(f"column {column}: {exc}") from None
     if not 0 <= value <= maximum:
         raise _Bad(f"column {column} must be in 0..{maximum}; got {value}")
     return value
@@ -454,11 +455,9 @@ def _parse_csv_rows(body: list[str], names: list[str], shown: str) -> np.ndarray
             if not text:
                 raise _Bad(f"{shown} line {line}, column {names[j]} is empty")
             try:
-                out[i, j] = float(text)
-            except ValueError:
-                raise _Bad(
-                    f"{shown} line {line}, column {names[j]}: {text!r} is not a number"
-                ) from None
+                out[i, j] = parse_number(text, float)
+            except ValueError as exc:
+                raise _Bad(f"{shown} line {line}, column {names[j]}: {exc}") from None
     return out
 
 
@@ -883,22 +882,34 @@ def import_recordings(
             )
         _check_disk(out, len(rows))
         if pending.exists():
-            shutil.rmtree(pending)  # an unfinished replacement: this import replaces it
+            # The unfinished copy of an import or generation that was killed (or stopped
+            # by a second Ctrl-C): this import replaces it.
+            shutil.rmtree(pending)
+            warnings.warn(
+                f"removed {pending}, the unfinished copy an interrupted import or generation "
+                f"of {out} left beside it",
+                RecordingWarning,
+                stacklevel=2,
+            )
         options = {
             "sample_rate_hz": sample_rate_hz,
             "window_start_s": window_start_s,
             "chunk_trials": chunk_trials,
         }
-        try:
-            summary = _build(pending, rows, recordings, labels, options, progress)
-            if occupied:
-                atomic.replace_dir(pending, out)
-            else:
-                os.rename(pending, out)  # out is absent or an empty directory
-                atomic.fsync_dir(out.parent)
-        except BaseException:
-            shutil.rmtree(pending, ignore_errors=True)
-            raise
+        # Ctrl-C stops between recordings and chunks, never inside a zarr write: zarr's IO
+        # thread would finish that write after the copy below was removed, and leave it.
+        with StopRequests() as stop:
+            try:
+                summary = _build(pending, rows, recordings, labels, options, progress, stop.check)
+                stop.check()
+                if occupied:
+                    atomic.replace_dir(pending, out)
+                else:
+                    os.rename(pending, out)  # out is absent or an empty directory
+                    atomic.fsync_dir(out.parent)
+            except BaseException:
+                shutil.rmtree(pending, ignore_errors=True)
+                raise
     summary.path = out
     unlisted = _unlisted(recordings, rows, labels)
     if unlisted:
@@ -950,10 +961,12 @@ def _build(
     labels: Path,
     options: dict[str, Any],
     progress: bool,
+    stop: Callable[[], None] = lambda: None,
 ) -> ImportSummary:
     """Write the whole imported store at ``target`` (absent), or raise
     :class:`RecordingError` with every bad recording (``target`` then holds junk that
-    the caller deletes)."""
+    the caller deletes). ``stop`` is called before each recording is read and after each
+    chunk is written (it raises to stop the import there)."""
     from tqdm import tqdm
 
     order = _store_order(rows)
@@ -983,6 +996,7 @@ def _build(
         for k in range(-(-n // c)):
             batch = np.zeros((min(c, n - k * c), len(CHANNELS), N_SAMPLES), dtype=np.float32)
             for j in range(batch.shape[0]):
+                stop()
                 i = k * c + j
                 row = order.rows[i]
                 shown = str(recordings / row.file)
@@ -1038,6 +1052,7 @@ def _build(
                 for r, s in zip(order.rows[rs], seeds[rs], strict=True)
             ]
             store.write_chunk(target, k, batch, specs, store_id)
+            stop()
     finally:
         bar.close()
     if problems:

@@ -17,6 +17,18 @@ def counted(n: int, noun: str, plural: str | None = None) -> str:
     return f"{n} {noun if n == 1 else plural or noun + 's'}"
 
 
+def chunking(n_trials: int, chunk_trials: int) -> str:
+    """How ``n_trials`` fill chunks of at most ``chunk_trials``, in the trials each chunk
+    really holds: ``"60 chunks of 36"``, ``"1 chunk of 8"`` (8 trials, chunks of up to
+    36), ``"3 chunks of 5, the last of 2"``."""
+    n_chunks = -(-n_trials // chunk_trials)
+    text = f"{counted(n_chunks, 'chunk')} of {min(chunk_trials, n_trials)}"
+    last = n_trials - (n_chunks - 1) * chunk_trials
+    if n_chunks > 1 and last != chunk_trials:
+        text += f", the last of {last}"
+    return text
+
+
 def channel_stats(chunks: Iterable[np.ndarray], n_channels: int) -> dict[str, np.ndarray]:
     """Per-channel mean, std, min, max, rms over ``chunks`` (each ``(b, C, T)``), streamed
     chunk by chunk. Returns arrays of shape ``(C,)`` (float64) and ``trials`` (how many
@@ -132,7 +144,7 @@ def _counts(values: list) -> str:
 def _origin_lines(st: store.Store) -> list[str]:
     """Where the data come from: the generation grid, or the import's sources."""
     meta, n = st.meta, st.n_trials
-    chunks = f"({counted(n, 'trial')}, {counted(st.n_chunks, 'chunk')} of {st.chunk_trials})"
+    chunks = f"({counted(n, 'trial')}, {chunking(n, st.chunk_trials)})"
     if not st.imported:
         cfg = st.config
         return [

@@ -280,6 +280,16 @@ def test_counts_in_messages_take_the_number_they_need():
     assert conditions == ["0 conditions", "1 condition", "8 conditions"]
 
 
+def test_chunk_counts_and_sizes_are_the_trials_chunks_really_hold(tmp_path):
+    from synth.summary import chunking
+
+    assert chunking(2160, 36) == "60 chunks of 36"
+    assert chunking(8, 36) == "1 chunk of 8"
+    assert chunking(12, 5) == "3 chunks of 5, the last of 2"
+    out = run(tiny(trials_per_class=2, forces_n=(1.0,), chunk_trials=36), tmp_path / "ds")
+    assert "(4 trials, 1 chunk of 4)" in summarize(out)
+
+
 def test_incompatible_format_version(tmp_path):
     out = run(tiny(), tmp_path / "ds")
     group = zarr.open_group(out, mode="r+")

@@ -11,6 +11,7 @@ tests about the dataset machinery; the real one runs only where physics is the p
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -488,6 +489,16 @@ def test_a_grid_larger_than_the_free_disk_is_refused_with_the_estimate(tmp_path,
     assert list(tmp_path.iterdir()) == []
 
 
+def test_memory_refusal_counts_the_chunks_a_small_grid_really_has(tmp_path, monkeypatch):
+    monkeypatch.setattr(generation, "available_memory", lambda: 1000)
+    config = tiny(trials_per_class=2, forces_n=(1.0,), chunk_trials=36)  # 4 trials
+    with pytest.raises(
+        ValueError, match=r"\(4 trials .*, 1 chunk of 4 trials in flight, 1 worker\)"
+    ):
+        generation.generate(config, tmp_path / "ds", workers=3, progress=False)
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_huge_episode_counts_are_refused_before_any_work(complete, capsys, tmp_path):
     out, _ = complete
     for n, expect in (("1000000000000", "at most 100,000"), ("0", "must be >= 1")):
@@ -706,6 +717,27 @@ def test_benchmark_refuses_a_foreign_output_directory(complete, capsys, tmp_path
     assert len(load_dataset(inner)) == 12
 
 
+@pytest.mark.parametrize(
+    "extra",
+    [[], ["--trials-per-class", "2"], ["--repair"]],
+    ids=["stored-grid", "grid-options", "repair"],
+)
+def test_resume_of_a_directory_that_is_no_dataset_names_out(tmp_path, capsys, extra):
+    folder = tmp_path / "papers"
+    folder.mkdir()
+    (folder / "thesis.tex").write_text("precious")
+    code, _, err = cli(["generate", "--resume", "--out", folder, *extra], capsys)
+    line = one_line(err)
+    flag = "--resume --repair" if extra == ["--repair"] else "--resume"
+    assert code == 2
+    assert line.startswith(
+        f"tactile-synth generate: error: --out {folder}: not a tactile-synth dataset (no "
+    )
+    assert f"drop {flag} and choose an empty or new --out" in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["papers"]  # no lock file left
+    assert [p.name for p in folder.iterdir()] == ["thesis.tex"]
+
+
 def test_run_refuses_a_given_dataset_inside_its_output_directory(tmp_path, capsys):
     runs = tmp_path / "runs"
     runs.mkdir()
@@ -847,3 +879,67 @@ def test_ctrl_c_while_the_cli_loads_is_one_line(monkeypatch, capsys):
 def test_the_console_script_is_the_interrupt_safe_entry():
     text = (ROOT / "pyproject.toml").read_text()
     assert 'tactile-synth = "tactile_synth.entry:main"' in text
+
+
+# -- 9. progress -----------------------------------------------------------------------------
+#: A plain progress line; the times after the percentage vary from run to run.
+PROGRESS_LINE = re.compile(r"\[tactile-synth\] (.+): (\d+)/(\d+) trials \((\d+)%\) in .* s")
+
+
+def progress_lines(err: str) -> list[tuple[str, int, int, int]]:
+    """``(what, done, total, percent)`` of each progress line of ``err`` (its timing
+    left out); every line of ``err`` must be one, and no bar redraws a line."""
+    assert "\r" not in err, err
+    found = []
+    for line in err.splitlines():
+        m = PROGRESS_LINE.fullmatch(line.split(", about ")[0])
+        assert m, line
+        found.append((m[1], int(m[2]), int(m[3]), int(m[4])))
+    return found
+
+
+def test_progress_is_plain_lines_when_stderr_is_not_a_terminal(tmp_path, capsys):
+    out = tmp_path / "ds"
+    code, _, err = cli(["generate", "--out", out, *GRID], capsys)  # 12 trials, chunks of 4
+    assert code == 0
+    assert progress_lines(err) == [
+        ("generate paper", 4, 12, 33),
+        ("generate paper", 8, 12, 66),
+        ("generate paper", 12, 12, 100),
+    ]
+    for fmt in ("npz", "csv"):
+        code, _, err = cli(["export", out, "--format", fmt], capsys)
+        assert code == 0
+        assert [(d, n, p) for _, d, n, p in progress_lines(err)] == [
+            (4, 12, 33),
+            (8, 12, 66),
+            (12, 12, 100),
+        ]
+        assert progress_lines(err)[0][0] == f"export {fmt}"
+    data = np.load(tmp_path / "ds.npz", allow_pickle=False)
+    assert np.array_equal(data["signals"], load_dataset(out).signals)
+
+
+def test_progress_lines_mark_each_tenth_once_and_the_end(capsys):
+    from synth.progress import LineProgress
+
+    bar = LineProgress(100, desc="generate big", unit="trial", initial=36)
+    for _ in range(64):
+        bar.update(1)
+    bar.close()
+    percents = [p for *_, p in progress_lines(capsys.readouterr().err)]
+    assert percents == [40, 50, 60, 70, 80, 90, 100]
+
+
+def test_progress_on_a_terminal_stays_a_bar(tmp_path, monkeypatch):
+    import io
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    term = Terminal()
+    monkeypatch.setattr(sys, "stderr", term)
+    generation.generate(tiny(), tmp_path / "ds", workers=1, simulator=FakeSimulator())
+    text = term.getvalue()
+    assert "\r" in text and "12/12" in text and "[tactile-synth]" not in text

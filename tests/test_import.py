@@ -335,6 +335,22 @@ def _non_numeric(d):
     (d / "t1.csv").write_text("\n".join(lines) + "\n")
 
 
+def _underscored_sample(d):
+    lines = (d / "t1.csv").read_text().splitlines()
+    cells = lines[4].split(",")
+    cells[1] = "1_0"  # float("1_0") is 10.0
+    lines[4] = ",".join(cells)
+    (d / "t1.csv").write_text("\n".join(lines) + "\n")
+
+
+def _underscored_seed(d):
+    lines = (d / "labels.csv").read_text().splitlines()
+    seeds = ["seed", "1", "2_000", "3"]  # int("2_000") is 2000
+    (d / "labels.csv").write_text(
+        "\n".join(f"{line},{seed}" for line, seed in zip(lines, seeds, strict=True)) + "\n"
+    )
+
+
 def _short_row(d):
     lines = (d / "t1.csv").read_text().splitlines()
     lines[9] = ",".join(lines[9].split(",")[:3])
@@ -426,6 +442,10 @@ BAD_CASES = {
     "wrong channel count": (_bad_channels, ["t1.csv line 1 names 3 channels", "missing: sg2"]),
     "NaN sample": (_nan, ["t1.csv line 813, column sg1: nan"]),
     "non-numeric cell": (_non_numeric, ["t1.csv line 5, column pvdf2: 'abc' is not a number"]),
+    "underscore in a sample": (
+        _underscored_sample,
+        ["t1.csv line 5, column pvdf2: '1_0' is not a number (underscores are not accepted"],
+    ),
     "row with too few values": (_short_row, ["t1.csv line 10 has 3 values"]),
     "too short": (_too_short, ["t1.csv is 1.500 s long", "window of 2 s"]),
     "NPZ channel count": (_npz_channels, ["t1.npz holds 3 of the 4 channel arrays"]),
@@ -454,6 +474,14 @@ BAD_CASES = {
     "non-numeric force": (
         _replace_in_labels(2, ",1,10", ",heavy,10"),
         ["labels.csv line 2: column force_n: 'heavy' is not a number"],
+    ),
+    "underscore in a speed": (
+        _replace_in_labels(2, ",1,10", ",1,1_0"),
+        ["labels.csv line 2: column speed_mm_s: '1_0' is not a number (underscores are not"],
+    ),
+    "underscore in a seed": (
+        _underscored_seed,
+        ["labels.csv line 3: column seed: '2_000' is not a whole number (underscores are not"],
     ),
     "duplicate file": (_duplicate_file, ["labels.csv line 5: file t1.csv is listed again"]),
     "missing file": (_missing_file, ["labels.csv line 4: file t2.csv does not exist"]),
@@ -488,6 +516,30 @@ def test_bad_input_is_named_by_file_and_line_and_leaves_nothing(tmp_path, capsys
     for w in words:
         assert w in err, err
     assert not (tmp_path / "sub").exists()  # not even the directory made for the lock
+
+
+@pytest.mark.parametrize(
+    ("option", "value", "words"),
+    [
+        ("--sample-rate", "1_000", "'1_000' is not a number (underscores are not accepted: "
+         "write '1000' if that is the number meant)"),
+        ("--window-start", "0_5", "'0_5' is not a number (underscores are not accepted"),
+        ("--chunk-trials", "1_0", "'1_0' is not a whole number (underscores are not accepted"),
+        ("--chunk-trials", "ten", "invalid int value: 'ten'"),  # as every integer option says
+    ],
+)  # fmt: skip
+def test_numeric_options_refuse_underscores_naming_the_option(
+    tmp_path, capsys, option, value, words
+):
+    recs = tmp_path / "recs"
+    small(recs)
+    out = tmp_path / "data"
+    with pytest.raises(SystemExit) as exc:
+        main(["import", str(recs), "--out", str(out), option, value])
+    assert exc.value.code == 2
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert last.startswith(f"tactile-synth import: error: argument {option}: {words}"), last
+    assert not out.exists()
 
 
 def test_failed_overwrite_keeps_the_previous_dataset(tmp_path):
@@ -624,7 +676,7 @@ def test_ctrl_c_leaves_nothing(tmp_path, monkeypatch, capsys):
     argv = ["import", str(recs), "--out", str(out), "--sample-rate", "1000", "--chunk-trials", "1"]
     assert main(argv) == 130
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "interrupted; nothing was imported" in err
+    assert len(err.splitlines()) == 1 and "interrupted; nothing was written" in err
     assert not (tmp_path / "sub").exists()  # chunk 0 was written, yet nothing is left
 
 
@@ -643,6 +695,78 @@ def test_ctrl_c_during_overwrite_keeps_the_previous_dataset(tmp_path, monkeypatc
     assert after.attrs["store_id"] == before.attrs["store_id"]
     assert np.array_equal(after.signals, before.signals)
     assert leftovers(tmp_path, out) == ["data"]
+
+
+CTRL_C_IN_A_ZARR_WRITE = """
+import asyncio, os, signal, sys, threading, time
+from pathlib import Path
+from zarr.storage import LocalStore
+from synth import store
+from tactile_synth.entry import main
+
+out = Path(sys.argv[sys.argv.index("--out") + 1])
+pending = store.pending_path(out)
+real_set = LocalStore.set
+written = threading.Event()
+
+async def set_interrupted(self, key, value):
+    # Ctrl-C while zarr's IO thread writes chunk 1's signals. The file is written once
+    # the import has removed its unfinished copy, or after 2 s if it keeps it.
+    if key.startswith("signals/c/1/") and not written.is_set():
+        os.kill(os.getpid(), signal.SIGINT)
+        deadline = time.monotonic() + 2
+        while pending.exists() and time.monotonic() < deadline:
+            await asyncio.sleep(0.01)
+        try:
+            return await real_set(self, key, value)
+        finally:
+            written.set()
+    return await real_set(self, key, value)
+
+LocalStore.set = set_interrupted
+sys.argv[0] = "tactile-synth"
+code = main()
+written.wait(30)  # what zarr's IO thread still does for the interrupted import
+sys.exit(code)
+"""
+
+
+@pytest.mark.parametrize("previous", [False, True])
+def test_ctrl_c_in_a_zarr_write_leaves_no_unfinished_copy(tmp_path, previous):
+    """A real SIGINT while zarr writes a chunk: the import stops after that write, so
+    the unfinished copy beside ``--out`` is removed after zarr's last file, not before."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    recs = tmp_path / "recs"
+    small(recs)
+    out = tmp_path / "data"
+    if previous:
+        import_recordings(recs, out, sample_rate_hz=1000, progress=False)
+        before = load_dataset(out)
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    argv = ["import", str(recs), "--out", str(out), "--sample-rate", "1000", "--chunk-trials",
+            "1", "--overwrite"]  # fmt: skip
+    proc = subprocess.run(
+        [sys.executable, "-c", CTRL_C_IN_A_ZARR_WRITE, *argv],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        # a background job of a non-interactive shell inherits SIGINT ignored
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    assert proc.returncode == 130, proc.stderr
+    assert proc.stderr.strip().splitlines()[-1] == (
+        f"tactile-synth import: interrupted; nothing was written ({out} is as it was); run "
+        f"the same command again"
+    )
+    assert leftovers(tmp_path, out) == (["data"] if previous else [])
+    if previous:
+        after = load_dataset(out)
+        assert after.attrs["store_id"] == before.attrs["store_id"]
 
 
 KILLED_IMPORT = """
@@ -693,7 +817,8 @@ def test_killed_import_leaves_no_dataset_and_the_next_one_cleans_up(tmp_path, pr
         assert not out.exists()
         with pytest.raises(FileNotFoundError, match=r"interrupted import .* run your"):
             load_dataset(out)
-    import_recordings(recs, out, sample_rate_hz=1000, overwrite=True, progress=False)
+    with pytest.warns(RecordingWarning, match=r"^removed .*, the unfinished copy an interr"):
+        import_recordings(recs, out, sample_rate_hz=1000, overwrite=True, progress=False)
     assert load_dataset(out).signals.shape == (3, len(CHANNELS), N_SAMPLES)
     assert leftovers(tmp_path, out) == ["data"]
 
