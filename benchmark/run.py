@@ -131,7 +131,8 @@ def run_protocols(
         fits = checkpoints.FitCheckpoints(out, [key for _, _, key, _ in pending])
         kept = len(list(fits.directory.glob("*.json"))) if fits.directory.is_dir() else 0
         if kept:
-            log(progress, f"{kept} finished fits in {fits.directory}: reused where unchanged")
+            # (out may be the output set's temporary sibling: the path is not the user's.)
+            log(progress, f"{kept} fits finished by an interrupted run: reused where unchanged")
         processes = run_task_sets(
             [tasks for _, _, _, tasks in pending],
             methods,
