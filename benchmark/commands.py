@@ -7,6 +7,7 @@ import argparse
 import shlex
 import sys
 
+from shapes.validation import int_arg
 from tactile_synth.interrupts import terminate_as_interrupt
 from tactile_synth.threads import HELP as THREADS_HELP
 
@@ -72,8 +73,10 @@ def _register_benchmark(subparsers: argparse._SubParsersAction) -> None:
         metavar="NAME",
         help=_methods_help("the seven built-in methods"),
     )
-    p.add_argument("--episodes", type=int, default=500, help="episodes per cell (default 500)")
-    p.add_argument("--seed", type=int, default=0, help="seed of splits and episodes (default 0)")
+    p.add_argument("--episodes", type=int_arg, default=500, help="episodes per cell (default 500)")
+    p.add_argument(
+        "--seed", type=int_arg, default=0, help="seed of splits and episodes (default 0)"
+    )
     p.add_argument(
         "--overwrite",
         action="store_true",
@@ -82,12 +85,12 @@ def _register_benchmark(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--workers",
-        type=int,
+        type=int_arg,
         metavar="N",
         help="processes the fits run in, each with its share of the CPUs (default: one per "
         "usable CPU; 1: all in this process)",
     )
-    p.add_argument("--threads", type=int, metavar="N", help=THREADS_HELP)
+    p.add_argument("--threads", type=int_arg, metavar="N", help=THREADS_HELP)
     p.set_defaults(handler=_benchmark)
 
 
@@ -144,10 +147,10 @@ def _register_run(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
     p.add_argument("--quick", action="store_true", help="small datasets, fewer episodes (<5 min)")
-    p.add_argument("--seed", type=int, default=0, help="seed of data and episodes (default 0)")
+    p.add_argument("--seed", type=int_arg, default=0, help="seed of data and episodes (default 0)")
     p.add_argument(
         "--workers",
-        type=int,
+        type=int_arg,
         metavar="N",
         help="processes for generation and for the benchmark's fits, sharing the CPUs "
         "(default: generation in this process, fits in one process per usable CPU)",
@@ -177,7 +180,7 @@ def _register_run(subparsers: argparse._SubParsersAction) -> None:
         metavar="PATH",
         help="use this dataset store as the perturbation dataset instead of generating it",
     )
-    p.add_argument("--threads", type=int, metavar="N", help=THREADS_HELP)
+    p.add_argument("--threads", type=int_arg, metavar="N", help=THREADS_HELP)
     p.set_defaults(handler=_run)
 
 

@@ -37,19 +37,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, help="dataset path (a Zarr store directory)")
     p.add_argument("--shapes", nargs="+", metavar="NAME")
     p.add_argument("--materials", nargs="+", metavar="NAME")
-    p.add_argument("--trials-per-class", type=int, metavar="N")
-    p.add_argument("--force", nargs="+", type=float, metavar="N", help="normal forces (N)")
-    p.add_argument("--speed", nargs="+", type=float, metavar="MM_S", help="speeds (mm/s)")
+    p.add_argument("--trials-per-class", type=int_arg, metavar="N")
+    p.add_argument("--force", nargs="+", type=float_arg, metavar="N", help="normal forces (N)")
+    p.add_argument("--speed", nargs="+", type=float_arg, metavar="MM_S", help="speeds (mm/s)")
     p.add_argument("--exclude-nominal", action="store_true", help="drop the 1 N, 10 mm/s condition")
-    p.add_argument("--seed", type=int)
-    p.add_argument("--chunk-trials", type=int, metavar="N", help="trials per chunk / task")
+    p.add_argument("--seed", type=int_arg)
+    p.add_argument("--chunk-trials", type=int_arg, metavar="N", help="trials per chunk / task")
     p.add_argument(
         "--workers",
-        type=int,
+        type=int_arg,
         help="local processes (default 1: this process; N > 1: a pool of N processes "
         "sharing the CPUs)",
     )
-    p.add_argument("--threads", type=int, metavar="N", help=THREADS_HELP)
+    p.add_argument("--threads", type=int_arg, metavar="N", help=THREADS_HELP)
     p.add_argument(
         "--scheduler",
         metavar="ADDRESS",

@@ -47,6 +47,7 @@ from .presets import (
     TrialPlan,
     condition_name,
 )
+from .progress import progress as show_progress
 from .trial import CHANNELS, N_SAMPLES, SAMPLE_RATE_HZ, TrialSpec, class_index
 
 #: Columns every labels table has: the recording file (relative to the recordings
@@ -843,7 +844,8 @@ def import_recordings(
     overwrite: replace an existing dataset at ``out`` (a non-empty ``out`` is refused
     otherwise). Recordings not at SAMPLE_RATE_HZ are resampled with a
     :class:`RecordingWarning`. Raises :class:`RecordingError` (a ``ValueError``) naming
-    every bad file and line; nothing is written then.
+    every bad file and line; nothing is written then. progress: report the recordings
+    read on stderr (a bar on a terminal, plain lines elsewhere; see :mod:`synth.progress`).
     """
     recordings = Path(recordings)
     if not recordings.exists():
@@ -966,9 +968,9 @@ def _build(
     """Write the whole imported store at ``target`` (absent), or raise
     :class:`RecordingError` with every bad recording (``target`` then holds junk that
     the caller deletes). ``stop`` is called before each recording is read and after each
-    chunk is written (it raises to stop the import there)."""
-    from tqdm import tqdm
-
+    chunk is written (it raises to stop the import there). ``progress``: report the
+    recordings read on stderr, one chunk at a time (:func:`synth.progress.progress`: a
+    bar on a terminal, plain lines elsewhere)."""
     order = _store_order(rows)
     c = int(options["chunk_trials"])
     n = len(order.rows)
@@ -991,7 +993,7 @@ def _build(
     formats: dict[str, int] = {}
     resampled: dict[float, int] = {}
     windows: dict[str, int] = {}
-    bar = tqdm(total=n, unit="trial", desc="import", disable=None if progress else True)
+    bar = show_progress(n, desc="import", enabled=progress)
     try:
         for k in range(-(-n // c)):
             batch = np.zeros((min(c, n - k * c), len(CHANNELS), N_SAMPLES), dtype=np.float32)

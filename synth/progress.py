@@ -1,4 +1,4 @@
-"""Progress of the long dataset commands (``generate``, ``export``) on stderr.
+"""Progress of the long dataset commands (``generate``, ``import``, ``export``) on stderr.
 
 On a terminal a tqdm bar redraws one line in place. Where stderr is not a terminal (a CI
 log, ``2>log``) a redrawn bar would fill the log with carriage returns, so plain lines are

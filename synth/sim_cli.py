@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from shapes import SHAPE_NAMES
+from shapes.validation import float_arg, int_arg
 
 from .materials import MATERIAL_NAMES
 
@@ -15,9 +16,9 @@ from .materials import MATERIAL_NAMES
 def _trial_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--shape", required=True, help=f"one of: {', '.join(SHAPE_NAMES)}")
     p.add_argument("--material", required=True, help=f"one of: {', '.join(MATERIAL_NAMES)}")
-    p.add_argument("--force", type=float, default=1.0, metavar="N", help="normal force (N)")
-    p.add_argument("--speed", type=float, default=10.0, metavar="MM_S", help="speed (mm/s)")
-    p.add_argument("--seed", type=int, default=0, help="trial seed (default 0)")
+    p.add_argument("--force", type=float_arg, default=1.0, metavar="N", help="normal force (N)")
+    p.add_argument("--speed", type=float_arg, default=10.0, metavar="MM_S", help="speed (mm/s)")
+    p.add_argument("--seed", type=int_arg, default=0, help="trial seed (default 0)")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

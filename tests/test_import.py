@@ -140,6 +140,24 @@ def imported(tmp_path_factory):
     return root, summary, special
 
 
+PROGRESS_LINE = re.compile(r"\[tactile-synth\] import: (\d+)/(\d+) trials? \((\d+)%\) in .* s")
+
+
+def progress_lines(err: str) -> list[tuple[int, int, int]]:
+    """``(done, total, percent)`` of the import's progress lines in ``err`` (stderr not
+    a terminal)."""
+    found = [PROGRESS_LINE.fullmatch(x.split(", about ")[0]) for x in err.splitlines()]
+    return [(int(m[1]), int(m[2]), int(m[3])) for m in found if m]
+
+
+def last_line(err: str) -> str:
+    """The one line a failed or interrupted import ends with, after the progress lines of
+    the recordings it read (as generate's and export's tests take it)."""
+    lines = err.strip().splitlines()
+    assert len(progress_lines(err)) == len(lines) - 1 and "\r" not in err, err
+    return lines[-1]
+
+
 def leftovers(folder: Path, out: Path) -> list[str]:
     """What an import to ``out`` left in ``folder``: the dataset, its hidden siblings."""
     return sorted(p.name for p in folder.iterdir() if out.name in p.name)
@@ -239,7 +257,8 @@ def test_cli_import_prints_one_summary_and_the_warning(imported, tmp_path, capsy
     assert main(["import", str(root / "recs"), "--out", str(out)]) == 0
     cap = capsys.readouterr()
     assert cap.out.startswith(f"wrote {out}: 24 trials (6 classes x 1 condition)")
-    warnings = cap.err.strip().splitlines()
+    warnings = [x for x in cap.err.strip().splitlines() if not PROGRESS_LINE.match(x)]
+    assert progress_lines(cap.err) == [(24, 24, 100)]
     assert len(warnings) == 1 and warnings[0].startswith("tactile-synth import: warning: resampled")
     # a second import onto it needs --overwrite
     assert main(["import", str(root / "recs"), "--out", str(out)]) == 2
@@ -496,8 +515,8 @@ def test_a_recording_hours_long_is_refused_before_resampling(tmp_path, capsys):
     _slow_time_column(recs)  # the time column in another unit: 2000 samples, 10,000 s
     (recs / "t1.csv").rename(recs / "t0.csv")
     rc = main(["import", str(recs), "--out", str(tmp_path / "data")])
-    err = capsys.readouterr().err
-    assert rc == 2 and len(err.strip().splitlines()) == 1
+    err = last_line(capsys.readouterr().err)
+    assert rc == 2
     assert "t0.csv: 2000 samples at 0.2 Hz last 10,000 s" in err
     assert not (tmp_path / "data").exists()
 
@@ -510,9 +529,8 @@ def test_bad_input_is_named_by_file_and_line_and_leaves_nothing(tmp_path, capsys
     edit(recs)
     out = tmp_path / "sub" / "data"
     rc = main(["import", str(recs), "--out", str(out), "--sample-rate", "1000"])
-    err = capsys.readouterr().err
-    assert rc == 2
-    assert len(err.strip().splitlines()) == 1 and err.startswith("tactile-synth import: error:")
+    err = last_line(capsys.readouterr().err)
+    assert rc == 2 and err.startswith("tactile-synth import: error:")
     for w in words:
         assert w in err, err
     assert not (tmp_path / "sub").exists()  # not even the directory made for the lock
@@ -675,9 +693,44 @@ def test_ctrl_c_leaves_nothing(tmp_path, monkeypatch, capsys):
     interrupt_at_chunk(monkeypatch, 1)
     argv = ["import", str(recs), "--out", str(out), "--sample-rate", "1000", "--chunk-trials", "1"]
     assert main(argv) == 130
-    err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "interrupted; nothing was written" in err
+    err = last_line(capsys.readouterr().err)
+    assert "interrupted; nothing was written" in err
     assert not (tmp_path / "sub").exists()  # chunk 0 was written, yet nothing is left
+
+
+def test_progress_is_plain_lines_off_a_terminal_and_none_before_a_recording_is_read(
+    tmp_path, capsys
+):
+    recs = tmp_path / "recs"
+    small(recs)
+    argv = ["import", str(recs), "--out", str(tmp_path / "data"), "--sample-rate", "1000"]
+    assert main([*argv, "--chunk-trials", "1"]) == 0
+    err = capsys.readouterr().err
+    assert progress_lines(err) == [(1, 3, 33), (2, 3, 66), (3, 3, 100)]
+    assert len(err.strip().splitlines()) == 3 and "\r" not in err
+    # a bad labels table stops the import before any recording is read: its line alone
+    small(tmp_path / "bad", shape="circel")
+    assert main(["import", str(tmp_path / "bad"), "--out", str(tmp_path / "other")]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "did you mean 'circle'" in err
+
+
+def test_progress_on_a_terminal_stays_a_bar(tmp_path, monkeypatch):
+    import io
+    import sys
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    recs = tmp_path / "recs"
+    small(recs)
+    term = Terminal()
+    monkeypatch.setattr(sys, "stderr", term)
+    argv = ["import", str(recs), "--out", str(tmp_path / "data"), "--sample-rate", "1000"]
+    assert main(argv) == 0
+    text = term.getvalue()
+    assert "\r" in text and "3/3" in text and "[tactile-synth]" not in text
 
 
 def test_ctrl_c_during_overwrite_keeps_the_previous_dataset(tmp_path, monkeypatch):
