@@ -18,6 +18,9 @@ where one process with two threads leaves them partly idle.
   same fit gives in this process with the same thread count.
 - A job that fails stops the run with its error; on an interrupt (Ctrl-C) the workers are
   terminated at once.
+- The temporary directory is named after the process that made it
+  (``tactile-synth-fits-<pid>-...``): a run killed outright (SIGKILL) cannot remove it,
+  so the next run removes those whose process is gone (:func:`remove_stale`).
 """
 
 from __future__ import annotations
@@ -25,6 +28,9 @@ from __future__ import annotations
 import concurrent.futures as cf
 import json
 import multiprocessing
+import os
+import re
+import shutil
 import tempfile
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -161,6 +167,41 @@ def _terminate(executor: cf.ProcessPoolExecutor) -> None:
     executor.shutdown(wait=True, cancel_futures=True)
 
 
+#: The temporary directories of :func:`run_fits`: ``PREFIX<pid>-<random>``.
+PREFIX = "tactile-synth-fits-"
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's process
+        return True
+    return True
+
+
+def remove_stale(directory: str | os.PathLike[str] | None = None) -> list[Path]:
+    """Remove the temporary directories that :func:`run_fits` left in ``directory``
+    (default: the system's temporary directory) when its process was killed outright:
+    those named after a process that no longer exists. Returns what was removed."""
+    root = Path(directory if directory is not None else tempfile.gettempdir())
+    removed = []
+    pattern = re.compile(re.escape(PREFIX) + r"(\d+)-")
+    try:
+        entries = list(root.iterdir())
+    except OSError:
+        return removed
+    for path in entries:
+        match = pattern.match(path.name)
+        if match is None or not path.is_dir() or path.is_symlink():
+            continue
+        if not _alive(int(match.group(1))):
+            shutil.rmtree(path, ignore_errors=True)
+            removed.append(path)
+    return removed
+
+
 def run_fits(
     groups: Sequence[FitGroup],
     jobs: Sequence[tuple[int, str]],
@@ -173,7 +214,8 @@ def run_fits(
     threads each (default: their share of the CPUs); yields each job's result as it
     finishes."""
     threads = threads or worker_threads(workers)
-    with tempfile.TemporaryDirectory(prefix="tactile-synth-fits-") as tmp:
+    remove_stale()
+    with tempfile.TemporaryDirectory(prefix=f"{PREFIX}{os.getpid()}-") as tmp:
         refs: dict[int, str] = {}
         for group in groups:
             for share in group.shares:

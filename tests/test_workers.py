@@ -184,3 +184,28 @@ def test_an_interrupt_stops_the_workers_at_once(datasets):
 def test_workers_must_be_a_positive_integer(datasets):
     with pytest.raises(ValueError, match="workers must be >= 1"):
         engine.run_task_sets(_sets(datasets), ["AFOP-ML"], workers=0)
+
+
+def test_a_killed_runs_temporary_datasets_are_removed_by_the_next(tmp_path):
+    """run_fits' temporary directory carries its process id; the directories of processes
+    that are gone (a run killed with SIGKILL) are removed, those of live ones are kept,
+    and other names are never touched."""
+    import subprocess
+    import sys
+
+    from benchmark.workers import PREFIX, remove_stale
+
+    gone = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    dead = tmp_path / f"{PREFIX}{int(gone.stdout)}-abc"
+    live = tmp_path / f"{PREFIX}{os.getpid()}-def"
+    other = tmp_path / f"{PREFIX}old-ghi"
+    for d in (dead, live, other):
+        (d / "data0").mkdir(parents=True)
+        (d / "data0" / "signals.npy").write_bytes(b"x")
+    assert remove_stale(tmp_path) == [dead]
+    assert not dead.exists() and live.is_dir() and other.is_dir()
