@@ -23,9 +23,9 @@ import os
 import re
 import shutil
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
@@ -35,6 +35,8 @@ from .results import from_json, to_json
 
 if TYPE_CHECKING:
     from .engine import FitGroup, FitResult
+
+T = TypeVar("T")
 
 #: Top-level packages of tactile-synth: the package version covers their classes' code.
 OWN_PACKAGES = frozenset({"shapes", "synth", "models", "benchmark", "tactile_synth"})
@@ -110,27 +112,37 @@ def _path(out: Path, protocol: str) -> Path:
     return Path(out) / "checkpoints" / (re.sub(r"[^A-Za-z0-9._-]+", "_", protocol) + ".json")
 
 
-def load(out: Path, protocol: str, key: str) -> list | None:
-    """The typed records saved for ``protocol`` under ``key``, or None."""
-    path = _path(out, protocol)
+def _read(path: Path, key: str, field: str, decode: Callable[[Any], T]) -> T | None:
+    """``decode`` of the ``field`` of the checkpoint file ``path`` written under ``key``;
+    None when there is none, it is damaged or foreign, or it was written under another
+    key."""
     if not path.is_file():
         return None
     try:
         saved = json.loads(path.read_text())
         if not isinstance(saved, dict) or saved.get("key") != key:
             return None
-        return from_json(saved["records"])
+        return decode(saved[field])
     except (json.JSONDecodeError, KeyError, TypeError, ValueError):
         return None
 
 
-def save(out: Path, protocol: str, key: str, records: Sequence[Mapping[str, Any]]) -> None:
-    """Save ``records`` of ``protocol`` under ``key``, atomically."""
-    path = _path(out, protocol)
+def _write(path: Path, key: str, field: str, value: Any) -> None:
+    """Write ``{"key": key, field: value}`` to ``path``, atomically."""
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps({"key": key, "records": to_json(records)}))
+    tmp.write_text(json.dumps({"key": key, field: value}))
     tmp.replace(path)
+
+
+def load(out: Path, protocol: str, key: str) -> list | None:
+    """The typed records saved for ``protocol`` under ``key``, or None."""
+    return _read(_path(out, protocol), key, "records", from_json)
+
+
+def save(out: Path, protocol: str, key: str, records: Sequence[Mapping[str, Any]]) -> None:
+    """Save ``records`` of ``protocol`` under ``key``, atomically."""
+    _write(_path(out, protocol), key, "records", to_json(records))
 
 
 class FitCheckpoints:
@@ -143,7 +155,6 @@ class FitCheckpoints:
     def __init__(self, out: Path, set_keys: Sequence[str]) -> None:
         self.directory = Path(out) / "checkpoints" / "fits"
         self.set_keys = list(set_keys)
-        self.found = 0
 
     def _key(self, group: FitGroup, name: str) -> str:
         shares = [
@@ -169,30 +180,15 @@ class FitCheckpoints:
         from .engine import FitResult
 
         fit_key = self._key(group, name)
-        path = self._path(fit_key)
-        if not path.is_file():
+        result = _read(self._path(fit_key), fit_key, "result", FitResult.from_obj)
+        if result is None or len(result.shares) != len(group.shares):
             return None
-        try:
-            saved = json.loads(path.read_text())
-            if not isinstance(saved, dict) or saved.get("key") != fit_key:
-                return None
-            result = FitResult.from_json(json.dumps(saved["result"]))
-        except (json.JSONDecodeError, KeyError, TypeError, ValueError):
-            return None
-        if len(result.shares) != len(group.shares):
-            return None
-        self.found += 1
         return result
 
     def save(self, group: FitGroup, name: str, result: FitResult) -> None:
         """Save ``result`` of ``name`` on ``group``, atomically."""
         fit_key = self._key(group, name)
-        path = self._path(fit_key)
-        self.directory.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(".tmp")
-        text = '{"key": ' + json.dumps(fit_key) + ', "result": ' + result.to_json() + "}"
-        tmp.write_text(text)
-        tmp.replace(path)
+        _write(self._path(fit_key), fit_key, "result", result.to_obj())
 
     def clear(self) -> None:
         """Delete every fit checkpoint (the protocols they served are checkpointed)."""

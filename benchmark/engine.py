@@ -34,7 +34,7 @@ from abc import ABC, abstractmethod
 from collections.abc import Callable, Hashable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
-from typing import ClassVar, NamedTuple
+from typing import Any, ClassVar, NamedTuple
 from typing import Protocol as TypingProtocol
 
 import numpy as np
@@ -394,29 +394,24 @@ class FitResult(NamedTuple):
 
     shares: list[TaskResults]
 
-    def to_json(self) -> str:
-        """JSON text of the results: the records as results.json holds them and the
-        per-episode accuracies (floats written exactly), so :meth:`from_json` gives back
-        the very same figures."""
-        return json.dumps(
-            [
-                {
-                    "scored": [
-                        {
-                            "record": s.record.to_dict(),
-                            "accuracies": np.asarray(s.accuracies).tolist(),
-                        }
-                        for s in part.scored
-                    ],
-                    "fits": [r.to_dict() for r in part.fits],
-                }
-                for part in self.shares
-            ]
-        )
+    def to_obj(self) -> list[dict[str, Any]]:
+        """The results as JSON-serialisable objects: the records as results.json holds
+        them and the per-episode accuracies (floats written exactly), so
+        :meth:`from_obj` gives back the very same figures."""
+        return [
+            {
+                "scored": [
+                    {"record": s.record.to_dict(), "accuracies": np.asarray(s.accuracies).tolist()}
+                    for s in part.scored
+                ],
+                "fits": [r.to_dict() for r in part.fits],
+            }
+            for part in self.shares
+        ]
 
     @classmethod
-    def from_json(cls, text: str) -> FitResult:
-        """The results :meth:`to_json` wrote (typed records)."""
+    def from_obj(cls, parts: list[dict[str, Any]]) -> FitResult:
+        """The results :meth:`to_obj` gave (typed records)."""
         return cls(
             [
                 TaskResults(
@@ -429,9 +424,18 @@ class FitResult(NamedTuple):
                     ],
                     [from_dict(r) for r in part["fits"]],
                 )
-                for part in json.loads(text)
+                for part in parts
             ]
         )
+
+    def to_json(self) -> str:
+        """:meth:`to_obj` as JSON text (a worker's answer)."""
+        return json.dumps(self.to_obj())
+
+    @classmethod
+    def from_json(cls, text: str) -> FitResult:
+        """The results :meth:`to_json` wrote."""
+        return cls.from_obj(json.loads(text))
 
 
 class FitCache(TypingProtocol):
