@@ -68,9 +68,7 @@ def export(
     tmp = target.with_name(target.name + ".partial")
     bar = show_progress(len(data), desc=f"export {fmt}", enabled=progress)
     # Written a store chunk of trials at a time: the progress moves as the file grows.
-    blocks = [
-        slice(k, min(k + st.chunk_trials, len(data))) for k in range(0, len(data), st.chunk_trials)
-    ]
+    blocks = [st.rows(k) for k in range(st.n_chunks)]
     try:
         if fmt == "npz":
             arrays = {
