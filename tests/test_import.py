@@ -784,6 +784,19 @@ sys.exit(code)
 """
 
 
+def _recordings_and_previous(tmp_path: Path, previous: bool):
+    """Recordings in ``tmp_path/recs`` and an ``--out`` at ``tmp_path/data`` that holds
+    an earlier import of them when ``previous``: ``(recs, out, that dataset or None)``."""
+    recs = tmp_path / "recs"
+    small(recs)
+    out = tmp_path / "data"
+    before = None
+    if previous:
+        import_recordings(recs, out, sample_rate_hz=1000, progress=False)
+        before = load_dataset(out)
+    return recs, out, before
+
+
 @pytest.mark.parametrize("previous", [False, True])
 def test_ctrl_c_in_a_zarr_write_leaves_no_unfinished_copy(tmp_path, previous):
     """A real SIGINT while zarr writes a chunk: the import stops after that write, so
@@ -793,12 +806,7 @@ def test_ctrl_c_in_a_zarr_write_leaves_no_unfinished_copy(tmp_path, previous):
     import subprocess
     import sys
 
-    recs = tmp_path / "recs"
-    small(recs)
-    out = tmp_path / "data"
-    if previous:
-        import_recordings(recs, out, sample_rate_hz=1000, progress=False)
-        before = load_dataset(out)
+    recs, out, before = _recordings_and_previous(tmp_path, previous)
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
     argv = ["import", str(recs), "--out", str(out), "--sample-rate", "1000", "--chunk-trials",
             "1", "--overwrite"]  # fmt: skip
@@ -845,12 +853,7 @@ def test_killed_import_leaves_no_dataset_and_the_next_one_cleans_up(tmp_path, pr
     import subprocess
     import sys
 
-    recs = tmp_path / "recs"
-    small(recs)
-    out = tmp_path / "data"
-    if previous:
-        import_recordings(recs, out, sample_rate_hz=1000, progress=False)
-        before = load_dataset(out)
+    recs, out, before = _recordings_and_previous(tmp_path, previous)
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
     proc = subprocess.run(
         [sys.executable, "-c", KILLED_IMPORT, str(recs), str(out)],
