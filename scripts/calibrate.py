@@ -6,6 +6,13 @@ source gives; nothing is tuned per shape, material or class.
     python3 scripts/calibrate.py skin
         Fit MuJoCo's soft-contact parameters of the skin so that its indentation follows
         Hertz's law for the configured skin modulus; prints Finger.skin_solref/solimp.
+    python3 scripts/calibrate.py friction
+        The stroke-to-stroke scatter of the friction coefficient
+        (Variability.friction_rel) from repeated-sliding measurements of two silicones on
+        PLA (scripts/data/silicone_pla_friction.csv): for each silicone, the run whose
+        pressure is nearest the skin's mean Hertz contact pressure at the nominal force,
+        and in it the coefficient of variation of the friction coefficient over its
+        cycles (run-in included); prints every run's figures and the mean of the two.
     python3 scripts/calibrate.py gain [--set SECTION.FIELD=VALUE ...]
         The PVDF post-amplifier gain: the largest round gain (1-2-5 series) that keeps
         the worst edge transient of the perturbation grid (every shape x material at
@@ -54,6 +61,7 @@ a minute); the default configuration is evaluated once.
 from __future__ import annotations
 
 import argparse
+import csv
 import dataclasses
 import hashlib
 import json
@@ -103,8 +111,9 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
     (
         "variability",
         "friction_rel",
-        (0.05, 0.08, 0.12, 0.15),
-        "stroke-to-stroke friction scatter: 6-8 % (repeatability studies) to 15 %",
+        (0.039, 0.05, 0.08, 0.12, 0.15),
+        "stroke-to-stroke friction scatter: 3.2-4.6 % (silicone on PLA at the skin's "
+        "pressure, their mean the default), 6-8 % (human skin) to 15 % (contaminated)",
     ),
     (
         "pvdf",
@@ -193,6 +202,78 @@ def cmd_skin(_args: argparse.Namespace) -> int:
     print("force (N)   Hertz (mm)   simulated (mm)")
     for fn, h, g in zip(forces, hertz, got, strict=True):
         print(f"{fn:8.2f}   {h * 1e3:10.3f}   {g * 1e3:14.3f}")
+    return 0
+
+
+#: Repeated-sliding measurements of silicone on PLA (their source and licence are in the
+#: file's header).
+FRICTION_DATA = Path(__file__).resolve().parent / "data" / "silicone_pla_friction.csv"
+
+
+def friction_runs(path: Path = FRICTION_DATA) -> dict[tuple[str, float], dict]:
+    """The runs of ``path`` as ``{(silicone, pressure_kpa): {"load_mn", "cof"}}``, each
+    run's friction coefficients in cycle order."""
+    runs: dict[tuple[str, float], dict] = {}
+    with open(path, newline="") as fh:
+        lines = [line for line in fh if not line.startswith("#")]
+    for row in csv.DictReader(lines):
+        key = (row["silicone"], float(row["pressure_kpa"]))
+        run = runs.setdefault(key, {"load_mn": float(row["load_mn"]), "cycles": []})
+        run["cycles"].append((int(row["cycle"]), float(row["friction_coefficient"])))
+    for run in runs.values():
+        run["cof"] = np.array([c for _, c in sorted(run.pop("cycles"))])
+    return runs
+
+
+def skin_contact_pressure_pa(config: synth.SynthConfig, force_n: float) -> float:
+    """Mean Hertz pressure of the skin's contact under ``force_n``: the force over the
+    contact area ``pi R delta``."""
+    from synth import contact
+
+    f = config.finger
+    sink = float(
+        contact.hertz_indentation_m(force_n, f.pad_radius_m, f.skin_modulus_pa, f.skin_poisson)
+    )
+    return force_n / (math.pi * f.pad_radius_m * sink)
+
+
+def friction_scatter(config: synth.SynthConfig, path: Path = FRICTION_DATA) -> dict:
+    """The friction scatter the measurements give for ``config``'s skin at the nominal
+    force: per silicone, the coefficient of variation (``ddof=1``) of the run nearest the
+    skin's contact pressure; ``value`` is their mean."""
+    from synth.presets import NOMINAL_FORCE_N
+
+    runs = friction_runs(path)
+    pressure_kpa = skin_contact_pressure_pa(config, NOMINAL_FORCE_N) / 1e3
+    chosen = {}
+    for silicone in sorted({s for s, _ in runs}):
+        p = min((p for s, p in runs if s == silicone), key=lambda p: abs(p - pressure_kpa))
+        chosen[silicone] = p
+    cv = {k: float(r["cof"].std(ddof=1) / r["cof"].mean()) for k, r in runs.items()}
+    return {
+        "pressure_kpa": pressure_kpa,
+        "runs": runs,
+        "cv": cv,
+        "chosen": chosen,
+        "value": float(np.mean([cv[(s, p)] for s, p in chosen.items()])),
+    }
+
+
+def cmd_friction(_args: argparse.Namespace) -> int:
+    from synth.presets import NOMINAL_FORCE_N
+
+    got = friction_scatter(synth.SynthConfig())
+    print(f"skin's mean contact pressure at {NOMINAL_FORCE_N:g} N: {got['pressure_kpa']:.1f} kPa")
+    print("silicone         load (mN)  pressure (kPa)  cycles  mean   CV (%)  CV after 5 (%)")
+    for (silicone, p), run in sorted(got["runs"].items()):
+        cof = run["cof"]
+        late = cof[5:].std(ddof=1) / cof[5:].mean()
+        mark = "  <- nearest" if got["chosen"].get(silicone) == p else ""
+        print(
+            f"{silicone:15s}  {run['load_mn']:9g}  {p:14g}  {cof.size:6d}  {cof.mean():.3f}"
+            f"  {100 * got['cv'][(silicone, p)]:6.2f}  {100 * late:14.2f}{mark}"
+        )
+    print(f"Variability.friction_rel = {got['value']:.3f} (mean of the nearest runs' CV)")
     return 0
 
 
@@ -628,6 +709,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
     sub.add_parser("skin", help="fit the skin contact to Hertz").set_defaults(func=cmd_skin)
+    sub.add_parser(
+        "friction", help="the stroke-to-stroke friction scatter from silicone measurements"
+    ).set_defaults(func=cmd_friction)
     p = sub.add_parser("gain", help="the PVDF post-amplifier gain")
     _add_set_option(p, "size the gain for this configuration, as whatif sets it")
     p.set_defaults(func=cmd_gain)

@@ -45,7 +45,7 @@ def test_sweep_refuses_fewer_than_one_seed_by_name(capsys):
         ("finger.skin_modulus_pa=1e5", "--base must be SECTION.FIELD=VALUE"),
         ("variability.friction_rel", "--base must be SECTION.FIELD=VALUE"),
         ("variability.friction_rel=high", "--base variability.friction_rel needs a number"),
-        ("variability.friction_rel=0.3", "must lie in its cited range 0.05..0.15"),
+        ("variability.friction_rel=0.3", "must lie in its cited range 0.039..0.15"),
         ("variability.yaw_rad=-0.001", "must lie in its cited range 0..0.02"),
     ],
 )
@@ -251,7 +251,7 @@ def test_whatif_evaluates_the_set_configuration_over_every_seed(monkeypatch, cap
     assert config.materials["resin"].texture.roughness_rms_m == resin.roughness_rms_m * 0.5
     assert not closed  # only with --closed-set
     out = capsys.readouterr().out
-    assert "PVDF amplifier noise 15.1 mV RMS at the DAQ" in out
+    assert "PVDF amplifier noise 30.2 mV RMS at the DAQ" in out
     assert "pvdf_share_gap -0.300" in out
     assert calibrate.main([*argv, "--closed-set", "50"]) == 0
     assert [e for _, e in closed] == [50]
@@ -333,3 +333,29 @@ def test_the_texture_scale_scales_every_texture_amplitude_and_nothing_else():
     # other parameter's default row).
     default = calibrate._default(base, *calibrate.TEXTURE_SCALE)
     assert calibrate._with(base, *calibrate.TEXTURE_SCALE, default).to_dict() == base.to_dict()
+
+
+def test_the_friction_scatter_default_is_the_one_the_silicone_measurements_give(capsys):
+    calibrate = _calibrate_module()
+    config = synth.SynthConfig()
+    got = calibrate.friction_scatter(config)
+    # The skin's mean Hertz pressure at 1 N lies nearest the 62.5 kPa runs of both silicones.
+    assert 40 < got["pressure_kpa"] < 70
+    assert got["chosen"] == {"Dragon Skin 10": 62.5, "Sil 950": 62.5}
+    assert all(run["cof"].size >= 29 for run in got["runs"].values())
+    assert round(got["value"], 3) == config.variability.friction_rel
+    assert calibrate.main(["friction"]) == 0
+    out = capsys.readouterr().out
+    assert f"Variability.friction_rel = {config.variability.friction_rel:.3f}" in out
+    assert out.count("<- nearest") == 2
+
+
+def test_a_stiffer_skin_draws_the_friction_scatter_from_a_higher_pressure_run():
+    calibrate = _calibrate_module()
+    config = synth.SynthConfig()
+    stiff = dataclasses.replace(
+        config, finger=dataclasses.replace(config.finger, skin_modulus_pa=3.0e6)
+    )
+    got = calibrate.friction_scatter(stiff)
+    assert got["pressure_kpa"] > 100
+    assert got["chosen"]["Sil 950"] > 62.5
