@@ -24,14 +24,18 @@ import sys
 import time
 from pathlib import Path
 
+from shapes.validation import int_arg
+
 
 def _parse() -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", help="dataset (default: synthetic 2,160 trials)")
-    parser.add_argument("--threads", type=int, default=1, help="BLAS/torch threads (default 1)")
-    parser.add_argument("--episodes", type=int, default=500, help="adapt episodes (default 500)")
-    parser.add_argument("--repeat", type=int, default=3, help="runs per stage; min reported")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--threads", type=int_arg, default=1, help="BLAS/torch threads (default 1)")
+    parser.add_argument(
+        "--episodes", type=int_arg, default=500, help="adapt episodes (default 500)"
+    )
+    parser.add_argument("--repeat", type=int_arg, default=3, help="runs per stage; min reported")
+    parser.add_argument("--seed", type=int_arg, default=0)
     return parser.parse_args()
 
 

@@ -28,6 +28,7 @@ from benchmark import protocols
 from benchmark.protocols.closed_set import columns_for, split_halves
 from models.features import extract
 from models.registry import METHOD_NAMES
+from shapes.validation import int_arg
 
 TARGET_EPISODES = 500
 TARGET_S = 20 * 60
@@ -37,8 +38,8 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=description(__doc__))
     parser.add_argument("--data", required=True)
     parser.add_argument("--methods", nargs="+", default=list(METHOD_NAMES))
-    parser.add_argument("--episodes", type=int, default=TARGET_EPISODES)
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--episodes", type=int_arg, default=TARGET_EPISODES)
+    parser.add_argument("--seed", type=int_arg, default=0)
     parser.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     args = parser.parse_args(argv)
     if not 1 <= args.episodes <= TARGET_EPISODES:

@@ -31,6 +31,7 @@ import numpy as np  # noqa: E402
 from script_args import description, fail, load_data  # noqa: E402
 
 from models.features import CHANNELS, FEATURE_NAMES, extract  # noqa: E402
+from shapes.validation import int_arg  # noqa: E402
 
 #: tsfresh calculators with a counterpart in our time-domain statistics (25 per channel).
 TSFRESH_PARAMS: dict = {
@@ -100,8 +101,8 @@ def bench_tsfresh(signals: np.ndarray) -> tuple[float, int]:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=description(__doc__))
     parser.add_argument("--data", required=True, help="a dataset (e.g. the paper preset)")
-    parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--tsfresh-trials", type=int, default=216)
+    parser.add_argument("--repeats", type=int_arg, default=3)
+    parser.add_argument("--tsfresh-trials", type=int_arg, default=216)
     args = parser.parse_args(argv)
     if args.repeats < 1 or args.tsfresh_trials < 1:
         fail(parser, "--repeats and --tsfresh-trials must be >= 1")

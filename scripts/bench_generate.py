@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from shapes.validation import int_arg
 from synth import generate, load_dataset
 from synth.presets import plan, preset
 
@@ -110,11 +111,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--preset", default="paper")
     parser.add_argument("--modes", nargs="+", default=["inline"], choices=tuple(MODES))
     parser.add_argument(
-        "--raw-trials", type=int, default=None, help="trials for the raw rate (default: all)"
+        "--raw-trials", type=int_arg, default=None, help="trials for the raw rate (default: all)"
     )
     parser.add_argument(
         "--repeat",
-        type=int,
+        type=int_arg,
         default=1,
         metavar="N",
         help="rounds of (generation in every mode, raw rollout); ratios are medians (default 1)",

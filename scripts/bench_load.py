@@ -46,6 +46,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from shapes.validation import int_arg
+
 ROOT = Path(__file__).resolve().parents[1]
 SLOW_TEST = "tests/test_run.py::test_benchmark_all_writes_everything_and_is_deterministic"
 TARGET_RATIO = 2.5
@@ -161,14 +163,14 @@ def main() -> int:
     parser.add_argument(
         "--data", help="dataset of the afop work (default: the quick preset, generated first)"
     )
-    parser.add_argument("--episodes", type=int, default=100, help="afop: episodes per column")
-    parser.add_argument("--rounds", type=int, default=1, help="idle/loaded pairs per work")
+    parser.add_argument("--episodes", type=int_arg, default=100, help="afop: episodes per column")
+    parser.add_argument("--rounds", type=int_arg, default=1, help="idle/loaded pairs per work")
     parser.add_argument("--load", choices=("spin", "run"), default="spin")
-    parser.add_argument("--load-procs", type=int, help="spin: processes (default: CPUs)")
+    parser.add_argument("--load-procs", type=int_arg, help="spin: processes (default: CPUs)")
     parser.add_argument(
         "--same-group", action="store_true", help="load in this session's scheduling group"
     )
-    parser.add_argument("--threads", type=int, help="the works' --threads (default: automatic)")
+    parser.add_argument("--threads", type=int_arg, help="the works' --threads (default: automatic)")
     parser.add_argument("--spin", action="store_true", help="the libraries' spinning defaults")
     parser.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     parser.add_argument("--child", choices=("afop", "load-run"), help=argparse.SUPPRESS)

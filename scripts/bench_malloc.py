@@ -18,6 +18,7 @@ import os
 import subprocess
 import sys
 
+from shapes.validation import int_arg
 from tactile_synth import allocator
 
 #: name -> (set-up, timed work): imports are not timed.
@@ -88,7 +89,7 @@ def measure(work: str, setting: str) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--repeats", type=int_arg, default=3)
     parser.add_argument("--work", nargs="+", choices=sorted(WORK), default=sorted(WORK))
     args = parser.parse_args(argv)
     if args.repeats < 1:

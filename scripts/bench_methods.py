@@ -24,6 +24,7 @@ from benchmark.evaluate import evaluate
 from benchmark.protocols.closed_set import split_halves
 from models.features import extract
 from models.registry import METHOD_NAMES, make_method
+from shapes.validation import int_arg
 
 #: Learned attributes that record what a method chose on its training split.
 CHOICES = (
@@ -46,8 +47,8 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=description(__doc__))
     parser.add_argument("--data", required=True)
     parser.add_argument("--methods", nargs="+", default=list(METHOD_NAMES))
-    parser.add_argument("--episodes", type=int, default=500)
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--episodes", type=int_arg, default=500)
+    parser.add_argument("--seed", type=int_arg, default=0)
     args = parser.parse_args(argv)
     if args.episodes < 1:
         fail(parser, f"--episodes must be >= 1; got {args.episodes}")

@@ -18,15 +18,17 @@ import sys
 import time
 from pathlib import Path
 
+from shapes.validation import float_arg, int_arg
+
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", required=True, type=Path)
     parser.add_argument("--quick", action="store_true")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seed", type=int_arg, default=0)
     parser.add_argument(
         "--target-s",
-        type=float,
+        type=float_arg,
         help="wall-time target in seconds (default 300 with --quick, else 1800)",
     )
     args = parser.parse_args()

@@ -19,16 +19,17 @@ import time
 
 import synth
 from shapes import SHAPE_NAMES
+from shapes.validation import int_arg
 from synth import simulator
 from synth.trial import TrialSpec
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--trials-per-class", type=int, default=10)
-    parser.add_argument("--threads", type=int, default=1)
+    parser.add_argument("--trials-per-class", type=int_arg, default=10)
+    parser.add_argument("--threads", type=int_arg, default=1)
     parser.add_argument(
-        "--repeat", type=int, default=3, help="end-to-end runs, each between two raw ones"
+        "--repeat", type=int_arg, default=3, help="end-to-end runs, each between two raw ones"
     )
     args = parser.parse_args()
     for name in ("trials_per_class", "threads", "repeat"):

@@ -12,6 +12,8 @@ import time
 
 from script_args import description, fail, load_data
 
+from shapes.validation import int_arg
+
 
 def best(fn, repeat: int) -> float:
     times = []
@@ -31,7 +33,7 @@ def main(argv: list[str] | None = None) -> None:
 
     parser = argparse.ArgumentParser(description=description(__doc__))
     parser.add_argument("--data", required=True, help="a tactile-synth dataset (Zarr store)")
-    parser.add_argument("--repeat", type=int, default=5, help="runs of each (best is kept)")
+    parser.add_argument("--repeat", type=int_arg, default=5, help="runs of each (best is kept)")
     args = parser.parse_args(argv)
     if args.repeat < 1:
         fail(parser, f"--repeat must be >= 1; got {args.repeat}")

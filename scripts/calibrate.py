@@ -76,6 +76,7 @@ import numpy as np
 
 import synth
 from shapes import SHAPE_NAMES
+from shapes.validation import int_arg, parse_number
 from synth.atomic import check_out_dir
 
 #: Not a configuration field: a factor on every material's texture amplitudes (roughness
@@ -448,7 +449,7 @@ def _parse_base(items: list[str] | None) -> dict[tuple[str, str], float]:
                 f"({', '.join(sorted(ranges))}); got {item!r}"
             )
         try:
-            value = float(text)
+            value = parse_number(text)
         except ValueError:
             raise SystemExit(f"--base {name} needs a number; got {text!r}") from None
         section, field, lo, hi = ranges[name]
@@ -610,7 +611,7 @@ def _parse_set(items: list[str] | None) -> dict[tuple[str, str], float]:
                 f"got {item!r}"
             )
         try:
-            value = float(text)
+            value = parse_number(text)
         except ValueError:
             value = math.nan
         if not math.isfinite(value):
@@ -716,9 +717,9 @@ def main(argv: list[str] | None = None) -> int:
     _add_set_option(p, "size the gain for this configuration, as whatif sets it")
     p.set_defaults(func=cmd_gain)
     p = sub.add_parser("sweep", help="the global parameters over their cited ranges")
-    p.add_argument("--trials-per-class", type=int, default=20)
+    p.add_argument("--trials-per-class", type=int_arg, default=20)
     p.add_argument(
-        "--seeds", type=int, default=1, help="dataset seeds per candidate (0..N-1; default 1)"
+        "--seeds", type=int_arg, default=1, help="dataset seeds per candidate (0..N-1; default 1)"
     )
     p.add_argument(
         "--only",
@@ -743,11 +744,11 @@ def main(argv: list[str] | None = None) -> int:
     p.set_defaults(func=cmd_sweep)
     p = sub.add_parser("whatif", help="one configuration, any values (not a calibration)")
     _add_set_option(p, "set a numeric configuration field")
-    p.add_argument("--trials-per-class", type=int, default=20)
-    p.add_argument("--seeds", type=int, default=1, help="dataset seeds (0..N-1; default 1)")
+    p.add_argument("--trials-per-class", type=int_arg, default=20)
+    p.add_argument("--seeds", type=int_arg, default=1, help="dataset seeds (0..N-1; default 1)")
     p.add_argument(
         "--closed-set",
-        type=int,
+        type=int_arg,
         default=0,
         metavar="EPISODES",
         help="also AFOP-ML's closed-set 1-shot row over this many episodes (and its t-SNE)",

@@ -52,6 +52,8 @@ from typing import Any
 
 import numpy as np
 
+from shapes.validation import float_arg, int_arg
+
 ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
@@ -96,19 +98,19 @@ RULE_CV = "lowest mean cross-validated NCA misclassification rate (first candida
 # -- selection rules (also re-applied by the tests to the committed evidence) ---------------
 def choose_best(scores: Sequence[float]) -> int:
     """Index of the highest score (the first on ties)."""
-    return int(np.argmax(np.asarray(scores, dtype=float)))
+    return int(np.argmax(np.asarray(scores, dtype=float_arg)))
 
 
 def choose_cheapest_within_ci(scores: Sequence[float], cis: Sequence[float]) -> int:
     """Index of the first (cheapest) candidate whose score is >= best - CI(best)."""
-    s = np.asarray(scores, dtype=float)
+    s = np.asarray(scores, dtype=float_arg)
     b = int(np.argmax(s))
     return int(np.flatnonzero(s >= s[b] - float(cis[b]))[0])
 
 
 def choose_lowest(losses: Sequence[float]) -> int:
     """Index of the lowest loss (the first on ties)."""
-    return int(np.argmin(np.asarray(losses, dtype=float)))
+    return int(np.argmin(np.asarray(losses, dtype=float_arg)))
 
 
 RULES: dict[str, Callable[..., int]] = {
@@ -488,8 +490,8 @@ def evidence_markdown(meta: dict[str, Any], chosen: dict, steps: list[dict]) -> 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--data", required=True, help="dataset (e.g. the paper preset)")
-    parser.add_argument("--seed", type=int, default=0, help="closed-set split and episode seed")
-    parser.add_argument("--episodes", type=int, default=200, help="episodes per column")
+    parser.add_argument("--seed", type=int_arg, default=0, help="closed-set split and episode seed")
+    parser.add_argument("--episodes", type=int_arg, default=200, help="episodes per column")
     parser.add_argument("--quick", action="store_true", help="coarse grids (smoke test)")
     parser.add_argument(
         "--write",

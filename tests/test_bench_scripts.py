@@ -99,3 +99,36 @@ def test_an_incomplete_dataset_is_finished_the_cli_way(monkeypatch, capsys):
     err = _fails(main, ["--data", "part"], capsys)
     assert "error: --data part: dataset part is incomplete" in err
     assert "generate --resume --out part`" in err and "allow_incomplete" not in err
+
+
+@pytest.mark.parametrize(
+    ("name", "argv"),
+    [
+        ("bench_afop", ["--episodes", "1_000"]),
+        ("bench_closed_set", ["--episodes", "1_000"]),
+        ("bench_features", ["--repeats", "1_000"]),
+        ("bench_generate", ["--repeat", "1_000"]),
+        ("bench_load", ["--rounds", "1_000"]),
+        ("bench_malloc", ["--repeats", "1_000"]),
+        ("bench_methods", ["--episodes", "1_000"]),
+        ("bench_run", ["--target-s", "1_000"]),
+        ("bench_sim", ["--repeat", "1_000"]),
+        ("bench_store", ["--repeat", "1_000"]),
+        ("calibrate", ["sweep", "--seeds", "1_000"]),
+        ("tune", ["--episodes", "1_000"]),
+    ],
+)
+def test_a_number_with_an_underscore_is_refused_naming_the_option(name, argv, tmp_path):
+    # A child process: some scripts pin their CPU or allocator when they load.
+    proc = subprocess.run(
+        [sys.executable, str(SCRIPTS / f"{name}.py"), *argv],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+    )
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr
+    option = next(a for a in argv if a.startswith("--"))
+    last = proc.stderr.splitlines()[-1]  # argparse's usage, then its error line
+    assert f"error: argument {option}: '1_000' is not a" in last
+    assert "write '1000'" in last
