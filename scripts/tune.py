@@ -52,7 +52,7 @@ from typing import Any
 
 import numpy as np
 
-from shapes.validation import float_arg, int_arg
+from shapes.validation import int_arg
 
 ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
@@ -98,19 +98,19 @@ RULE_CV = "lowest mean cross-validated NCA misclassification rate (first candida
 # -- selection rules (also re-applied by the tests to the committed evidence) ---------------
 def choose_best(scores: Sequence[float]) -> int:
     """Index of the highest score (the first on ties)."""
-    return int(np.argmax(np.asarray(scores, dtype=float_arg)))
+    return int(np.argmax(np.asarray(scores, dtype=float)))
 
 
 def choose_cheapest_within_ci(scores: Sequence[float], cis: Sequence[float]) -> int:
     """Index of the first (cheapest) candidate whose score is >= best - CI(best)."""
-    s = np.asarray(scores, dtype=float_arg)
+    s = np.asarray(scores, dtype=float)
     b = int(np.argmax(s))
     return int(np.flatnonzero(s >= s[b] - float(cis[b]))[0])
 
 
 def choose_lowest(losses: Sequence[float]) -> int:
     """Index of the lowest loss (the first on ties)."""
-    return int(np.argmin(np.asarray(losses, dtype=float_arg)))
+    return int(np.argmin(np.asarray(losses, dtype=float)))
 
 
 RULES: dict[str, Callable[..., int]] = {
