@@ -13,18 +13,18 @@
 Without ``--data`` the signals come from ``tests/synthetic_data.make_dataset`` (60 trials
 per class, 36 classes = 2,160 trials; timings do not depend on the signal content except
 the NCA's L-BFGS iteration count). ``--threads`` caps BLAS/OpenMP and torch threads
-(set before numpy is imported); the minimum over ``--repeat`` runs is reported.
+(``tactile_synth.threads.configure``); the minimum over ``--repeat`` runs is reported.
 """
 
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 from pathlib import Path
 
 from shapes.validation import int_arg
+from tactile_synth import threads
 
 
 def _parse() -> argparse.Namespace:
@@ -41,8 +41,9 @@ def _parse() -> argparse.Namespace:
 
 def main() -> None:
     args = _parse()
-    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ[var] = str(args.threads)
+    # numpy is loaded already (the option parser's shapes.validation): configure resizes
+    # its BLAS pool and sets every pool loaded later.
+    threads.configure(threads=args.threads)
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
     import torch

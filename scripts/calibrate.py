@@ -229,14 +229,10 @@ def friction_runs(path: Path = FRICTION_DATA) -> dict[tuple[str, float], dict]:
 
 def skin_contact_pressure_pa(config: synth.SynthConfig, force_n: float) -> float:
     """Mean Hertz pressure of the skin's contact under ``force_n``: the force over the
-    contact area ``pi R delta``."""
-    from synth import contact
+    contact area ``pi a^2`` (:func:`synth.texture.contact_radius_m`)."""
+    from synth.texture import contact_radius_m
 
-    f = config.finger
-    sink = float(
-        contact.hertz_indentation_m(force_n, f.pad_radius_m, f.skin_modulus_pa, f.skin_poisson)
-    )
-    return force_n / (math.pi * f.pad_radius_m * sink)
+    return force_n / (math.pi * float(contact_radius_m(config.finger, force_n)) ** 2)
 
 
 def friction_scatter(config: synth.SynthConfig, path: Path = FRICTION_DATA) -> dict:
