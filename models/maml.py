@@ -23,14 +23,13 @@ adapted to each test episode by a few SGD steps on its support set.
   episodes of those classes. Training stops when that validation accuracy has not risen
   by ``min_delta`` (0.5 pp) for ``patience`` (8) evaluations, 400 outer steps, and the
   best body is kept. The rule has to outlast the validation accuracy's noise: with 30
-  episodes its standard error is about 1.5 pp, three times ``min_delta``, and on the
-  paper preset's closed-set training half one lucky evaluation with a patience of 4
-  ended training after 350 outer steps at 0.79, while the same held-out classes' curve
-  goes on rising to about 0.91 by 1,200-1,700 steps. ``max_iterations`` (3,000) bounds a
-  fit's cost (the full run fits MAML seven times: once for the closed-set and
-  perturbation protocols, once per cross-shape and cross-material fold); ``plateaued_``
-  says whether the plateau or the bound ended training. ``meta_curve_`` is the curve: an
-  ``(n_evals, 2)`` array of (outer step, validation accuracy).
+  episodes its standard error is about 1.5 pp, three times ``min_delta``, so a short
+  patience lets one lucky evaluation end training while the held-out classes' curve is
+  still rising. ``max_iterations`` (3,000) bounds a fit's cost (the full run fits MAML
+  seven times: once for the closed-set and perturbation protocols, once per cross-shape
+  and cross-material fold); ``plateaued_`` says whether the plateau or the bound ended
+  training. ``meta_curve_`` is the curve: an ``(n_evals, 2)`` array of (outer step,
+  validation accuracy).
 - ``inner_lr`` and ``test_steps`` are chosen on the same validation episodes: the first
   ``lr_probe`` (100) outer steps are run for each of :data:`INNER_LRS` (Finn et al.'s
   0.01, and 0.1) from the same start and the best continues (``lr_probe_`` holds the
