@@ -41,17 +41,19 @@ source gives; nothing is tuned per shape, material or class.
         the rows it measured; ``--resume`` reuses the rows of DIR's table measured with
         the same trials per class, seeds and configuration, and measures the rest.
 
-    python3 scripts/calibrate.py whatif --set SECTION.FIELD=VALUE [--set ...]
+    python3 scripts/calibrate.py whatif [--set SECTION.FIELD=VALUE ...]
                                         [--trials-per-class 20] [--seeds 1]
-                                        [--closed-set EPISODES]
+                                        [--closed-set EPISODES [--closed-set-seeds 1]]
         Not a calibration: one configuration with any numeric field set to any value its
         dataclass accepts, inside or outside a cited range (``materials.texture_scale``
         as in the sweep; ``materials.marks_scale`` scales the periodic marks alone), to
-        measure what the real finger would have to be for a target to be met. Prints the
-        sweep's metrics over the seeds and, with ``--closed-set N``, AFOP-ML's
-        closed-set 1-shot row over N episodes on a paper-preset dataset (seed 0) of that
-        configuration, with the fit's D, PVDF share and t-SNE indicators. The defaults
-        never come from it.
+        measure what the real finger would have to be for a target to be met; without
+        ``--set``, the defaults. Prints the sweep's metrics over the seeds and, with
+        ``--closed-set N``, AFOP-ML's closed-set 1-shot row over N episodes on a
+        paper-preset dataset (seed 0) of that configuration, with the fit's D, PVDF share
+        and t-SNE indicators; ``--closed-set-seeds M`` measures that row on the datasets
+        of seeds 0..M-1 and adds each figure's mean and standard deviation over them. The
+        defaults never come from it.
 
 The sweep simulates 36 classes x ``--trials-per-class`` trials per candidate and seed
 (720 at the default of 20); at 30 trials per class and three seeds a candidate takes
@@ -68,6 +70,7 @@ import hashlib
 import json
 import math
 import os
+import shutil
 import sys
 import tempfile
 import time
@@ -627,11 +630,14 @@ def _parse_set(items: list[str] | None) -> dict[tuple[str, str], float]:
     return out
 
 
-def _closed_set_row(config: synth.SynthConfig, episodes: int, where: Path) -> dict:
+def _closed_set_row(
+    config: synth.SynthConfig, episodes: int, where: Path, dataset_seed: int = 0
+) -> dict:
     """AFOP-ML's closed-set 1-shot accuracy per N-way (%, over ``episodes`` episodes) on
-    the paper preset (seed 0) generated with ``config``, and of the same fit, as a full
-    run reports them: its D, the PVDF share of its selected features and the t-SNE
-    indicators of the test half in them (1-NN shape accuracy, mix-sil, DGI)."""
+    the paper preset generated with ``config`` from ``dataset_seed``, and of the same fit,
+    as a full run reports them: its D, the PVDF share of its selected features and the
+    t-SNE indicators of the test half in them (1-NN shape accuracy, mix-sil, DGI). The
+    episodes are drawn with seed 0, as the full run draws them."""
     from benchmark import protocols
     from benchmark.engine import Features
     from benchmark.interpret import analyse, sensor_shares
@@ -639,7 +645,8 @@ def _closed_set_row(config: synth.SynthConfig, episodes: int, where: Path) -> di
     from models.features import FEATURE_NAMES, extract
     from synth.presets import preset
 
-    synth.generate(preset("paper").replace(synth=config.to_dict()), where, overwrite=True)
+    recipe = preset("paper").replace(synth=config.to_dict(), seed=dataset_seed)
+    synth.generate(recipe, where, overwrite=True)
     data = synth.load_dataset(where)
     pool = extract(data.signals)  # the fit and the t-SNE read the same pool
     records = protocols.run(
@@ -669,15 +676,37 @@ def _fmt_closed_set(key: str, value: float) -> str:
     return f"{value:d}" if key == "closed_set_d" else f"{value:.3f}"
 
 
+def _closed_set_rows(config: synth.SynthConfig, episodes: int, seeds: int, tmp: Path) -> None:
+    """Print :func:`_closed_set_row` for dataset seeds 0..``seeds``-1 as each is measured
+    and, over two or more, each figure's mean and standard deviation over the seeds (one
+    paper-preset dataset is one draw of the trials' scatter: the mean says what the
+    configuration gives, the spread how far one dataset strays from it)."""
+    rows = []
+    for seed in range(seeds):
+        row = _closed_set_row(config, episodes, tmp / f"paper-{seed}", dataset_seed=seed)
+        rows.append(row)
+        figures = ", ".join(f"{k} {_fmt_closed_set(k, v)}" for k, v in row.items())
+        print(f"dataset seed {seed}: {figures}" if seeds > 1 else figures, flush=True)
+        shutil.rmtree(tmp / f"paper-{seed}", ignore_errors=True)
+    if seeds > 1:
+        spread = []
+        for key in rows[0]:
+            values = np.array([r[key] for r in rows], dtype=np.float64)
+            mean, sd = float(values.mean()), float(values.std(ddof=1))
+            fmt = "{:.2f}" if key.startswith("closed_set_1shot_") else "{:.3f}"
+            spread.append(f"{key} {fmt.format(mean)} +- {fmt.format(sd)}")
+        print(f"mean +- sd over {seeds} dataset seeds: " + ", ".join(spread), flush=True)
+
+
 def cmd_whatif(args: argparse.Namespace) -> int:
     from synth.sensors import SaturationError, amplifier_noise_v
     from synth.simulator import SaturatedTrialError
 
-    config = _configured(args.set)
+    config = _configured(args.set) if args.set else synth.SynthConfig()
     noise = amplifier_noise_v(config)
     print(
         "what-if configuration: "
-        + ", ".join(args.set)
+        + (", ".join(args.set) if args.set else "the defaults")
         + f" (PVDF amplifier noise {1e3 * noise[0]:.3g} mV RMS at the DAQ)",
         flush=True,
     )
@@ -687,8 +716,7 @@ def cmd_whatif(args: argparse.Namespace) -> int:
             metrics = _measured(config, args.trials_per_class, args.seeds, where)
             print(", ".join(f"{k} {_fmt(k, v)}" for k, v in metrics.items()), flush=True)
             if args.closed_set:
-                row = _closed_set_row(config, args.closed_set, Path(tmp) / "paper")
-                print(", ".join(f"{k} {_fmt_closed_set(k, v)}" for k, v in row.items()))
+                _closed_set_rows(config, args.closed_set, args.closed_set_seeds, Path(tmp))
         except (SaturationError, SaturatedTrialError) as exc:
             # A setting that raises a channel's signal can drive it beyond the ADC's range;
             # the DAQ cannot record that configuration as set.
@@ -750,6 +778,13 @@ def main(argv: list[str] | None = None) -> int:
         metavar="EPISODES",
         help="also AFOP-ML's closed-set 1-shot row over this many episodes (and its t-SNE)",
     )
+    p.add_argument(
+        "--closed-set-seeds",
+        type=int_arg,
+        default=1,
+        metavar="N",
+        help="measure the closed-set row on paper-preset datasets of seeds 0..N-1 (default 1)",
+    )
     p.set_defaults(func=cmd_whatif)
     args = parser.parse_args(argv)
     if getattr(args, "trials_per_class", 2) < 2:
@@ -758,6 +793,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--seeds must be at least 1")
     if getattr(args, "closed_set", 0) < 0:
         parser.error("--closed-set must be 0 (off) or a number of episodes")
+    if getattr(args, "closed_set_seeds", 1) < 1:
+        parser.error("--closed-set-seeds must be at least 1")
     return args.func(args)
 
 

@@ -165,7 +165,6 @@ def test_sweep_resume_refuses_without_out_and_a_foreign_table(tmp_path, monkeypa
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        ([], "--set: give at least one SECTION.FIELD=VALUE"),
         (["--set", "pvdf.no_such_field=1"], "--set must be SECTION.FIELD=VALUE"),
         (["--set", "materials.resin=1"], "--set must be SECTION.FIELD=VALUE"),
         (["--set", "pvdf.post_gain"], "--set must be SECTION.FIELD=VALUE"),
@@ -236,9 +235,10 @@ def test_whatif_evaluates_the_set_configuration_over_every_seed(monkeypatch, cap
         seen.append((config, trials_per_class, seed))
         return row
 
-    def closed_set(config, episodes, where):
-        closed.append((config, episodes))
-        return {"closed_set_1shot_5way": 90.0, "closed_set_d": 8, "tsne_dgi": 4.769}
+    def closed_set(config, episodes, where, dataset_seed=0):
+        closed.append((config, episodes, dataset_seed))
+        acc = 90.0 + 2.0 * dataset_seed
+        return {"closed_set_1shot_5way": acc, "closed_set_d": 8, "tsne_dgi": 4.769}
 
     monkeypatch.setattr(calibrate, "_evaluate", evaluate)
     monkeypatch.setattr(calibrate, "_closed_set_row", closed_set)
@@ -256,9 +256,34 @@ def test_whatif_evaluates_the_set_configuration_over_every_seed(monkeypatch, cap
     assert "PVDF amplifier noise 30.2 mV RMS at the DAQ" in out
     assert "pvdf_share_gap -0.300" in out
     assert calibrate.main([*argv, "--closed-set", "50"]) == 0
-    assert [e for _, e in closed] == [50]
+    assert [(e, s) for _, e, s in closed] == [(50, 0)]
     assert closed[0][0] == config
     assert "closed_set_1shot_5way 90.00, closed_set_d 8, tsne_dgi 4.769" in capsys.readouterr().out
+    closed.clear()
+    assert calibrate.main([*argv, "--closed-set", "50", "--closed-set-seeds", "3"]) == 0
+    assert [(e, s) for _, e, s in closed] == [(50, 0), (50, 1), (50, 2)]
+    out = capsys.readouterr().out
+    assert "dataset seed 2: closed_set_1shot_5way 94.00, closed_set_d 8" in out
+    assert "mean +- sd over 3 dataset seeds: closed_set_1shot_5way 92.00 +- 2.00" in out
+
+
+def test_whatif_without_a_setting_measures_the_defaults(monkeypatch, capsys):
+    calibrate = _calibrate_module()
+    seen = []
+
+    def evaluate(config, trials_per_class, where, seed):
+        seen.append(config)
+        shares = ("cross_shape", "cross_material", "paper_d_cross_shape", "paper_d_cross_material")
+        return {"class_all": 0.5, **{f"pvdf_share_{k}": 0.3 for k in shares}}
+
+    monkeypatch.setattr(calibrate, "_evaluate", evaluate)
+    assert calibrate.main(["whatif", "--trials-per-class", "4"]) == 0
+    assert [c.to_dict() for c in seen] == [synth.SynthConfig().to_dict()]
+    assert "what-if configuration: the defaults (" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        calibrate.main(["whatif", "--closed-set", "5", "--closed-set-seeds", "0"])
+    assert "error: --closed-set-seeds must be at least 1" in capsys.readouterr().err
+    assert len(seen) == 1  # refused before anything is simulated
 
 
 def test_a_candidate_over_seeds_reports_means_the_share_gap_and_their_spread():
