@@ -237,7 +237,10 @@ class Variability:
     #: sets the angle between the specimen's periodic marks and the fingerprint's ridges
     #: (:func:`synth.texture.mark_gains`).
     yaw_rad: float = 0.005
-    #: Relative error of the force set point and of the path speed.
+    #: Relative error of the force set point and of the path speed. Neither is measured
+    #: for this rig (the paper does not say how its arm held the force): both are
+    #: assumptions, and ``scripts/calibrate.py whatif --set variability.force_rel=...``
+    #: measures what a larger force error would change (``docs/simulator.md``).
     force_rel: float = 0.02
     speed_rel: float = 0.01
     #: Stroke-to-stroke scatter of the friction coefficient on one specimen (coefficient
