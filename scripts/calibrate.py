@@ -693,7 +693,8 @@ def _closed_set_rows(config: synth.SynthConfig, episodes: int, seeds: int, tmp: 
         for key in rows[0]:
             values = np.array([r[key] for r in rows], dtype=np.float64)
             mean, sd = float(values.mean()), float(values.std(ddof=1))
-            fmt = "{:.2f}" if key.startswith("closed_set_1shot_") else "{:.3f}"
+            fmt = {"closed_set_d": "{:.1f}"}.get(key, "{:.3f}")
+            fmt = "{:.2f}" if key.startswith("closed_set_1shot_") else fmt
             spread.append(f"{key} {fmt.format(mean)} +- {fmt.format(sd)}")
         print(f"mean +- sd over {seeds} dataset seeds: " + ", ".join(spread), flush=True)
 
@@ -795,6 +796,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--closed-set must be 0 (off) or a number of episodes")
     if getattr(args, "closed_set_seeds", 1) < 1:
         parser.error("--closed-set-seeds must be at least 1")
+    if getattr(args, "closed_set_seeds", 1) > 1 and not args.closed_set:
+        parser.error("--closed-set-seeds needs --closed-set EPISODES (the row it repeats)")
     return args.func(args)
 
 

@@ -265,6 +265,7 @@ def test_whatif_evaluates_the_set_configuration_over_every_seed(monkeypatch, cap
     out = capsys.readouterr().out
     assert "dataset seed 2: closed_set_1shot_5way 94.00, closed_set_d 8" in out
     assert "mean +- sd over 3 dataset seeds: closed_set_1shot_5way 92.00 +- 2.00" in out
+    assert "closed_set_d 8.0 +- 0.0, tsne_dgi 4.769 +- 0.000" in out
 
 
 def test_whatif_without_a_setting_measures_the_defaults(monkeypatch, capsys):
@@ -283,6 +284,9 @@ def test_whatif_without_a_setting_measures_the_defaults(monkeypatch, capsys):
     with pytest.raises(SystemExit):
         calibrate.main(["whatif", "--closed-set", "5", "--closed-set-seeds", "0"])
     assert "error: --closed-set-seeds must be at least 1" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        calibrate.main(["whatif", "--closed-set-seeds", "3"])
+    assert "error: --closed-set-seeds needs --closed-set EPISODES" in capsys.readouterr().err
     assert len(seen) == 1  # refused before anything is simulated
 
 
