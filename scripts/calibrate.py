@@ -283,7 +283,7 @@ ROUND_GAINS: tuple[float, ...] = (0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0
 
 
 def _configured(items: list[str] | None) -> synth.SynthConfig:
-    """The default configuration with the ``--set`` items applied."""
+    """The default configuration with the ``--set`` items applied (none: the defaults)."""
     config = synth.SynthConfig()
     for (section, field), value in _parse_set(items).items():
         try:
@@ -296,7 +296,7 @@ def _configured(items: list[str] | None) -> synth.SynthConfig:
 def cmd_gain(args: argparse.Namespace) -> int:
     from synth.sensors import SaturationError
 
-    config = _configured(args.set) if args.set else synth.SynthConfig()
+    config = _configured(args.set)
     # The worst transient per unit post-gain, read through a DAQ of a wide range.
     probe = dataclasses.replace(
         config,
@@ -593,7 +593,7 @@ SECTIONS = ("finger", "motion", "variability", "strain_gauge", "pvdf", "acquisit
 def _parse_set(items: list[str] | None) -> dict[tuple[str, str], float]:
     """``--set SECTION.FIELD=VALUE`` items as ``{(section, field): value}``: a numeric
     field of a configuration section (or ``materials.texture_scale`` or
-    ``materials.marks_scale``), each set once."""
+    ``materials.marks_scale``), each set once; none gives an empty table."""
     defaults = synth.SynthConfig()
     out: dict[tuple[str, str], float] = {}
     for item in items or ():
@@ -625,8 +625,6 @@ def _parse_set(items: list[str] | None) -> dict[tuple[str, str], float]:
                 raise SystemExit(f"--set {name} needs a whole number; got {text!r}")
             value = int(value)
         out[section, field] = value
-    if not out:
-        raise SystemExit("--set: give at least one SECTION.FIELD=VALUE")
     return out
 
 
@@ -703,7 +701,7 @@ def cmd_whatif(args: argparse.Namespace) -> int:
     from synth.sensors import SaturationError, amplifier_noise_v
     from synth.simulator import SaturatedTrialError
 
-    config = _configured(args.set) if args.set else synth.SynthConfig()
+    config = _configured(args.set)
     noise = amplifier_noise_v(config)
     print(
         "what-if configuration: "
