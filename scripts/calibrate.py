@@ -668,10 +668,13 @@ def _closed_set_row(
 
 
 def _fmt_closed_set(key: str, value: float) -> str:
-    """A closed-set row's figure: accuracies in % to 2 decimals, D whole, the rest to 3."""
+    """A closed-set row's figure: accuracies in % to 2 decimals, D whole (to 1 decimal
+    for a mean or spread over datasets), the rest to 3."""
     if key.startswith("closed_set_1shot_"):
         return f"{value:.2f}"
-    return f"{value:d}" if key == "closed_set_d" else f"{value:.3f}"
+    if key == "closed_set_d":
+        return f"{value:d}" if isinstance(value, (int, np.integer)) else f"{value:.1f}"
+    return f"{value:.3f}"
 
 
 def _closed_set_rows(config: synth.SynthConfig, episodes: int, seeds: int, tmp: Path) -> None:
@@ -691,9 +694,7 @@ def _closed_set_rows(config: synth.SynthConfig, episodes: int, seeds: int, tmp: 
         for key in rows[0]:
             values = np.array([r[key] for r in rows], dtype=np.float64)
             mean, sd = float(values.mean()), float(values.std(ddof=1))
-            fmt = {"closed_set_d": "{:.1f}"}.get(key, "{:.3f}")
-            fmt = "{:.2f}" if key.startswith("closed_set_1shot_") else fmt
-            spread.append(f"{key} {fmt.format(mean)} +- {fmt.format(sd)}")
+            spread.append(f"{key} {_fmt_closed_set(key, mean)} +- {_fmt_closed_set(key, sd)}")
         print(f"mean +- sd over {seeds} dataset seeds: " + ", ".join(spread), flush=True)
 
 
