@@ -121,6 +121,15 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
         "pressure, their mean the default), 6-8 % (human skin) to 15 % (contaminated)",
     ),
     (
+        "variability",
+        "force_rel",
+        (0.02, 0.06, 0.1, 0.2),
+        "stroke-to-stroke error of the normal force at 1 N: 6 % from a UR5's +-0.1 mm pose "
+        "repeatability against the skin's Hertz indentation (the default), up to the 0.38 N "
+        "a UR5e's force mode misses 1-10 N set points by (Trochimczuk et al. 2026); 2 % a "
+        "tight servo",
+    ),
+    (
         "pvdf",
         "feedback_resistance_ohm",
         (1e9, 100e6, 10e6),
