@@ -13,6 +13,13 @@ source gives; nothing is tuned per shape, material or class.
         pressure is nearest the skin's mean Hertz contact pressure at the nominal force,
         and in it the coefficient of variation of the friction coefficient over its
         cycles (run-in included); prints every run's figures and the mean of the two.
+    python3 scripts/calibrate.py force
+        The stroke-to-stroke scatter of the normal force (Variability.force_rel) from the
+        arm's pose repeatability: one standard deviation of the press depth (ISO 9283
+        repeatability, mean distance plus 3 standard deviations, along the press
+        direction; and for a Gaussian scatter in three axes) against the skin's Hertz
+        indentation at the nominal force, through the load's power 1.5; prints both
+        readings and the value the default is rounded from.
     python3 scripts/calibrate.py gain [--set SECTION.FIELD=VALUE ...]
         The PVDF post-amplifier gain: the largest round gain (1-2-5 series) that keeps
         the worst edge transient of the perturbation grid (every shape x material at
@@ -284,6 +291,58 @@ def cmd_friction(_args: argparse.Namespace) -> int:
             f"  {100 * got['cv'][(silicone, p)]:6.2f}  {100 * late:14.2f}{mark}"
         )
     print(f"Variability.friction_rel = {got['value']:.3f} (mean of the nearest runs' CV)")
+    return 0
+
+
+#: Pose repeatability of the UR5 (its data sheet: +-0.1 mm), stated as ISO 9283 states it:
+#: the mean distance of the reached poses from their mean plus 3 standard deviations.
+ARM_REPEATABILITY_M = 0.1e-3
+#: Mean plus 3 standard deviations of the distance from the centre of a Gaussian scatter
+#: with standard deviation 1 in each of three axes (a chi distribution of 3 degrees:
+#: mean 2 sqrt(2 / pi), variance 3 - 8 / pi).
+CHI3_MEAN_PLUS_3SD = 2 * math.sqrt(2 / math.pi) + 3 * math.sqrt(3 - 8 / math.pi)
+
+
+def force_scatter(config: synth.SynthConfig) -> dict:
+    """The normal force's stroke-to-stroke scatter a press of ``config``'s skin at a
+    repeatable depth gives at the nominal force: the Hertz load goes as the indentation to
+    the power 1.5, so a depth error of standard deviation ``s`` scatters it by
+    ``1.5 s / delta`` (relative), ``delta`` the skin's indentation. ``s`` is the arm's
+    repeatability over 3 (ISO 9283's mean + 3 sd, all along the press direction: the
+    ``value`` the default is rounded from) or over :data:`CHI3_MEAN_PLUS_3SD` (a Gaussian
+    scatter in three axes: ``gaussian_3d``)."""
+    from synth import contact
+    from synth.presets import NOMINAL_FORCE_N
+
+    f = config.finger
+    delta = float(
+        contact.hertz_indentation_m(
+            NOMINAL_FORCE_N, f.pad_radius_m, f.skin_modulus_pa, f.skin_poisson
+        )
+    )
+    sd_axis = ARM_REPEATABILITY_M / 3
+    sd_3d = ARM_REPEATABILITY_M / CHI3_MEAN_PLUS_3SD
+    return {
+        "force_n": NOMINAL_FORCE_N,
+        "indentation_m": delta,
+        "depth_sd_m": sd_axis,
+        "depth_sd_3d_m": sd_3d,
+        "value": 1.5 * sd_axis / delta,
+        "gaussian_3d": 1.5 * sd_3d / delta,
+    }
+
+
+def cmd_force(_args: argparse.Namespace) -> int:
+    got = force_scatter(synth.SynthConfig())
+    delta_mm = got["indentation_m"] * 1e3
+    print(f"skin's Hertz indentation at {got['force_n']:g} N: {delta_mm:.3f} mm")
+    print(f"arm's pose repeatability (ISO 9283, mean + 3 sd): {ARM_REPEATABILITY_M * 1e3:g} mm")
+    for label, sd, rel in (
+        ("along the press direction (repeatability / 3)", got["depth_sd_m"], got["value"]),
+        ("Gaussian in three axes", got["depth_sd_3d_m"], got["gaussian_3d"]),
+    ):
+        print(f"  {label}: depth sd {sd * 1e3:.4f} mm -> load scatter {100 * rel:.2f} %")
+    print(f"Variability.force_rel = {got['value']:.2f} (1.5 x depth sd / indentation)")
     return 0
 
 
@@ -747,6 +806,9 @@ def main(argv: list[str] | None = None) -> int:
     sub.add_parser(
         "friction", help="the stroke-to-stroke friction scatter from silicone measurements"
     ).set_defaults(func=cmd_friction)
+    sub.add_parser(
+        "force", help="the stroke-to-stroke force scatter from the arm's repeatability"
+    ).set_defaults(func=cmd_force)
     p = sub.add_parser("gain", help="the PVDF post-amplifier gain")
     _add_set_option(p, "size the gain for this configuration, as whatif sets it")
     p.set_defaults(func=cmd_gain)

@@ -248,7 +248,7 @@ class Variability:
     #: sensor, misses set points of 1-10 N by 0.38 N on average (Trochimczuk et al.
     #: 2026, Sensors 26, 1709), and the paper's UR5 has no wrist sensor. So 6 % is the
     #: lower end of what the cited figures allow (``docs/simulator.md``, "The force
-    #: scatter").
+    #: scatter"); ``scripts/calibrate.py force`` derives it from the configured skin.
     force_rel: float = 0.06
     #: Relative error of the path speed: not measured for this rig either; an assumption.
     speed_rel: float = 0.01

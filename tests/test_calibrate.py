@@ -12,6 +12,7 @@ import pytest
 
 import synth
 from models.features import FEATURE_NAMES
+from synth import contact
 from tests.synthetic_data import make_dataset
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -428,6 +429,37 @@ def test_the_friction_scatter_default_is_the_one_the_silicone_measurements_give(
     out = capsys.readouterr().out
     assert f"Variability.friction_rel = {config.variability.friction_rel:.3f}" in out
     assert out.count("<- nearest") == 2
+
+
+def test_the_force_scatter_default_is_the_one_the_arms_repeatability_gives(capsys):
+    calibrate = _calibrate_module()
+    config = synth.SynthConfig()
+    got = calibrate.force_scatter(config)
+    f = config.finger
+    delta = contact.hertz_indentation_m(1.0, f.pad_radius_m, f.skin_modulus_pa, f.skin_poisson)
+    assert got["indentation_m"] == pytest.approx(float(delta))
+    assert got["value"] == pytest.approx(1.5 * (0.1e-3 / 3) / float(delta))
+    # A Gaussian scatter in three axes reaches the same repeatability with a smaller sd.
+    assert 0.8 * got["value"] < got["gaussian_3d"] < got["value"]
+    assert round(got["value"], 2) == config.variability.force_rel
+    assert calibrate.main(["force"]) == 0
+    out = capsys.readouterr().out
+    assert f"Variability.force_rel = {config.variability.force_rel:.2f}" in out
+
+
+def test_the_force_scatter_follows_the_skin_it_is_derived_from():
+    calibrate = _calibrate_module()
+    config = synth.SynthConfig()
+    stiff = dataclasses.replace(
+        config,
+        finger=dataclasses.replace(
+            config.finger, skin_modulus_pa=8 * config.finger.skin_modulus_pa
+        ),
+    )
+    # Hertz: the indentation goes as E^(-2/3), so 8 x the modulus sinks 4 x less deep
+    # and the same depth error scatters the load 4 x more.
+    ratio = calibrate.force_scatter(stiff)["value"] / calibrate.force_scatter(config)["value"]
+    assert ratio == pytest.approx(4.0, rel=1e-9)
 
 
 def test_a_stiffer_skin_draws_the_friction_scatter_from_a_higher_pressure_run():
