@@ -6,6 +6,7 @@ import dataclasses
 import importlib.util
 import json
 import re
+import types
 from pathlib import Path
 
 import pytest
@@ -378,7 +379,7 @@ def test_selection_shares_report_each_fits_selection_and_ranking(monkeypatch):
             else:
                 self.selected_ = sg[:4]
                 ranking = pvdf[:3] + sg[:20]
-            self.ncfs_ = dataclasses.make_dataclass("Ranked", ["ranking_"])(ranking)
+            self.ncfs_ = types.SimpleNamespace(ranking_=ranking)
             return self
 
     monkeypatch.setattr(models.afop, "AFOPML", KnownFit)
