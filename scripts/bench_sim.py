@@ -5,7 +5,11 @@
 Reports physics steps/s of the bare rollout, end-to-end trials/s, CPU seconds per 2 s
 trial, and the end-to-end overhead over the raw rollout (targets: <= 25 %, <= 60 ms CPU
 per trial), per round and as the median over the rounds; raw and end-to-end runs
-alternate so that a drift of the machine's speed does not pass for overhead. The default
+alternate so that a drift of the machine's speed does not pass for overhead. Then, once,
+the CPU per trial of ``simulate_batch``'s stages run one after the other on the same
+batches: planning (each trial's felt surface, model and path), the closed loop (MuJoCo's
+steps and the surface's and force loop's updates between periods) and the sensor chain,
+so an overhead can be traced to its stage. The default
 of 10 trials per class gives rollout batches of 30 trials per shape, about the size of a
 generation chunk (36 trials of the paper preset); smaller batches pay the closed loop's
 fixed cost per update period over fewer trials.
@@ -88,6 +92,40 @@ def main() -> None:
         f"{(statistics.median(ratios) - 1) * 100:+.1f}% wall, "
         f"{(statistics.median(cpu_ratios) - 1) * 100:+.1f}% CPU"
     )
+
+    stages = _stages(specs, config, args.threads)
+    print(
+        "stages, one after the other (CPU ms per trial): "
+        + ", ".join(f"{name} {cpu / n * 1e3:.1f}" for name, cpu in stages.items())
+    )
+
+
+def _stages(specs: list[TrialSpec], config: synth.SynthConfig, threads: int) -> dict[str, float]:
+    """CPU seconds of planning, closed loop and sensor chain over ``specs``, in the batches
+    ``simulate_batch`` makes (same shape and speed, at most ``simulator.CHUNK``)."""
+    import mujoco
+
+    from synth import scene
+
+    groups: dict[tuple[str, float], list[TrialSpec]] = {}
+    for s in specs:
+        groups.setdefault((s.shape, s.speed_mm_s), []).append(s)
+    cpu = {"plan": 0.0, "closed loop": 0.0, "sensor chain": 0.0}
+    for (shape, _), members in groups.items():
+        base = scene.scene(shape, config).model
+        datas = [mujoco.MjData(base) for _ in range(threads)]
+        for part in simulator.batches(len(members)):
+            t0 = time.process_time()
+            plans = [simulator.plan(s, config) for s in members[part]]
+            t1 = time.process_time()
+            sens, heights = simulator._roll(plans, datas[: len(plans)], config)
+            t2 = time.process_time()
+            simulator._process(plans, sens, heights, config)
+            t3 = time.process_time()
+            cpu["plan"] += t1 - t0
+            cpu["closed loop"] += t2 - t1
+            cpu["sensor chain"] += t3 - t2
+    return cpu
 
 
 if __name__ == "__main__":
