@@ -15,11 +15,11 @@ source gives; nothing is tuned per shape, material or class.
         cycles (run-in included); prints every run's figures and the mean of the two.
     python3 scripts/calibrate.py force
         The stroke-to-stroke scatter of the normal force (Variability.force_rel) from the
-        arm's pose repeatability: one standard deviation of the press depth (ISO 9283
-        repeatability, mean distance plus 3 standard deviations, along the press
-        direction; and for a Gaussian scatter in three axes) against the skin's Hertz
-        indentation at the nominal force, through the load's power 1.5; prints both
-        readings and the value the default is rounded from.
+        arm's pose repeatability: one standard deviation of the press depth (the ISO 9283
+        repeatability, mean distance plus 3 standard deviations, over 3; bounded by a
+        Gaussian scatter in three axes and one along the press direction alone) against
+        the skin's Hertz indentation at the nominal force, through the load's power 1.5;
+        prints the three readings and the value the default is rounded from.
     python3 scripts/calibrate.py gain [--set SECTION.FIELD=VALUE ...]
         The PVDF post-amplifier gain: the largest round gain (1-2-5 series) that keeps
         the worst edge transient of the perturbation grid (every shape x material at
@@ -298,9 +298,11 @@ def cmd_friction(_args: argparse.Namespace) -> int:
 #: the mean distance of the reached poses from their mean plus 3 standard deviations.
 ARM_REPEATABILITY_M = 0.1e-3
 #: Mean plus 3 standard deviations of the distance from the centre of a Gaussian scatter
-#: with standard deviation 1 in each of three axes (a chi distribution of 3 degrees:
-#: mean 2 sqrt(2 / pi), variance 3 - 8 / pi).
+#: of standard deviation 1 in each of three axes (a chi distribution of 3 degrees: mean
+#: 2 sqrt(2 / pi), variance 3 - 8 / pi) ...
 CHI3_MEAN_PLUS_3SD = 2 * math.sqrt(2 / math.pi) + 3 * math.sqrt(3 - 8 / math.pi)
+#: ... and along one axis only (a folded normal: mean sqrt(2 / pi), variance 1 - 2 / pi).
+CHI1_MEAN_PLUS_3SD = math.sqrt(2 / math.pi) + 3 * math.sqrt(1 - 2 / math.pi)
 
 
 def force_scatter(config: synth.SynthConfig) -> dict:
@@ -308,9 +310,10 @@ def force_scatter(config: synth.SynthConfig) -> dict:
     repeatable depth gives at the nominal force: the Hertz load goes as the indentation to
     the power 1.5, so a depth error of standard deviation ``s`` scatters it by
     ``1.5 s / delta`` (relative), ``delta`` the skin's indentation. ``s`` is the arm's
-    repeatability over 3 (ISO 9283's mean + 3 sd, all along the press direction: the
-    ``value`` the default is rounded from) or over :data:`CHI3_MEAN_PLUS_3SD` (a Gaussian
-    scatter in three axes: ``gaussian_3d``)."""
+    repeatability over 3 (the ISO figure read as three standard deviations of the press
+    depth: the ``value`` the default is rounded from), and, to bound it, over
+    :data:`CHI3_MEAN_PLUS_3SD` (a Gaussian scatter in three axes: ``gaussian_3d``) and
+    :data:`CHI1_MEAN_PLUS_3SD` (all of it along the press direction: ``gaussian_1d``)."""
     from synth import contact
     from synth.presets import NOMINAL_FORCE_N
 
@@ -322,13 +325,16 @@ def force_scatter(config: synth.SynthConfig) -> dict:
     )
     sd_axis = ARM_REPEATABILITY_M / 3
     sd_3d = ARM_REPEATABILITY_M / CHI3_MEAN_PLUS_3SD
+    sd_1d = ARM_REPEATABILITY_M / CHI1_MEAN_PLUS_3SD
     return {
         "force_n": NOMINAL_FORCE_N,
         "indentation_m": delta,
         "depth_sd_m": sd_axis,
         "depth_sd_3d_m": sd_3d,
+        "depth_sd_1d_m": sd_1d,
         "value": 1.5 * sd_axis / delta,
         "gaussian_3d": 1.5 * sd_3d / delta,
+        "gaussian_1d": 1.5 * sd_1d / delta,
     }
 
 
@@ -338,8 +344,9 @@ def cmd_force(_args: argparse.Namespace) -> int:
     print(f"skin's Hertz indentation at {got['force_n']:g} N: {delta_mm:.3f} mm")
     print(f"arm's pose repeatability (ISO 9283, mean + 3 sd): {ARM_REPEATABILITY_M * 1e3:g} mm")
     for label, sd, rel in (
-        ("along the press direction (repeatability / 3)", got["depth_sd_m"], got["value"]),
+        ("repeatability / 3", got["depth_sd_m"], got["value"]),
         ("Gaussian in three axes", got["depth_sd_3d_m"], got["gaussian_3d"]),
+        ("Gaussian along the press direction", got["depth_sd_1d_m"], got["gaussian_1d"]),
     ):
         print(f"  {label}: depth sd {sd * 1e3:.4f} mm -> load scatter {100 * rel:.2f} %")
     print(f"Variability.force_rel = {got['value']:.2f} (1.5 x depth sd / indentation)")

@@ -243,12 +243,13 @@ class Variability:
     #: pose within +-0.1 mm (data sheet; ISO 9283 repeatability, the mean distance plus
     #: 3 standard deviations), and the skin's Hertz load grows with its indentation to
     #: the power 1.5, so at 1 N (0.82 mm deep) 0.1 mm / 3 gives 1.5 x 0.033 / 0.82 = 6 %
-    #: (5 % for a Gaussian scatter in three axes, 0.028 mm). A force loop is not known
-    #: to do better at this load: a UR5e in force mode, with its wrist force/torque
-    #: sensor, misses set points of 1-10 N by 0.38 N on average (Trochimczuk et al.
-    #: 2026, Sensors 26, 1709), and the paper's UR5 has no wrist sensor. So 6 % is the
-    #: lower end of what the cited figures allow (``docs/simulator.md``, "The force
-    #: scatter"); ``scripts/calibrate.py force`` derives it from the configured skin.
+    #: (5 % for a Gaussian scatter in three axes, 7 % for one along the press alone). A
+    #: force loop is not known to do better at this load: a UR5e in force mode, with its
+    #: wrist force/torque sensor, misses set points of 1-10 N by 0.38 N on average
+    #: (Trochimczuk et al. 2026, Sensors 26, 1709), and the paper's UR5 has no wrist
+    #: sensor. So 6 %, the middle of the repeatability's 5-7 %, lies at the lower end of
+    #: what the cited figures allow (``docs/simulator.md``, "The force scatter");
+    #: ``scripts/calibrate.py force`` derives it from the configured skin.
     force_rel: float = 0.06
     #: Relative error of the path speed: not measured for this rig either; an assumption.
     speed_rel: float = 0.01

@@ -440,8 +440,10 @@ def test_the_force_scatter_default_is_the_one_the_arms_repeatability_gives(capsy
     delta = contact.hertz_indentation_m(1.0, f.pad_radius_m, f.skin_modulus_pa, f.skin_poisson)
     assert got["indentation_m"] == pytest.approx(float(delta))
     assert got["value"] == pytest.approx(1.5 * (0.1e-3 / 3) / float(delta))
-    # A Gaussian scatter in three axes reaches the same repeatability with a smaller sd.
-    assert 0.8 * got["value"] < got["gaussian_3d"] < got["value"]
+    # The same repeatability takes a smaller sd from a Gaussian scatter in three axes, a
+    # larger one from a scatter along the press direction alone: they bound the reading.
+    assert 0.8 * got["value"] < got["gaussian_3d"] < got["value"] < got["gaussian_1d"]
+    assert got["gaussian_1d"] < 1.2 * got["value"]
     assert round(got["value"], 2) == config.variability.force_rel
     assert calibrate.main(["force"]) == 0
     out = capsys.readouterr().out
