@@ -102,29 +102,28 @@ def main() -> None:
 
 def _stages(specs: list[TrialSpec], config: synth.SynthConfig, threads: int) -> dict[str, float]:
     """CPU seconds of planning, closed loop and sensor chain over ``specs``, in the batches
-    ``simulate_batch`` makes (same shape and speed, at most ``simulator.CHUNK``)."""
+    ``simulate_batch`` makes (:func:`synth.simulator.rollout_chunks`)."""
     import mujoco
 
     from synth import scene
 
-    groups: dict[tuple[str, float], list[TrialSpec]] = {}
-    for s in specs:
-        groups.setdefault((s.shape, s.speed_mm_s), []).append(s)
     cpu = {"plan": 0.0, "closed loop": 0.0, "sensor chain": 0.0}
-    for (shape, _), members in groups.items():
-        base = scene.scene(shape, config).model
-        datas = [mujoco.MjData(base) for _ in range(threads)]
-        for part in simulator.batches(len(members)):
-            t0 = time.process_time()
-            plans = [simulator.plan(s, config) for s in members[part]]
-            t1 = time.process_time()
-            sens, heights = simulator._roll(plans, datas[: len(plans)], config)
-            t2 = time.process_time()
-            simulator._process(plans, sens, heights, config)
-            t3 = time.process_time()
-            cpu["plan"] += t1 - t0
-            cpu["closed loop"] += t2 - t1
-            cpu["sensor chain"] += t3 - t2
+    datas: dict[str, list[mujoco.MjData]] = {}
+    for chunk in simulator.rollout_chunks(specs):
+        shape = specs[chunk[0]].shape
+        if shape not in datas:
+            base = scene.scene(shape, config).model
+            datas[shape] = [mujoco.MjData(base) for _ in range(threads)]
+        t0 = time.process_time()
+        plans = [simulator.plan(specs[i], config) for i in chunk]
+        t1 = time.process_time()
+        sens, heights = simulator._roll(plans, datas[shape][: len(plans)], config)
+        t2 = time.process_time()
+        simulator._process(plans, sens, heights, config)
+        t3 = time.process_time()
+        cpu["plan"] += t1 - t0
+        cpu["closed loop"] += t2 - t1
+        cpu["sensor chain"] += t3 - t2
     return cpu
 
 

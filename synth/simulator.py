@@ -464,6 +464,16 @@ def _check_config(config: SynthConfig | None) -> SynthConfig:
     return config
 
 
+def rollout_chunks(specs: Sequence[TrialSpec]) -> list[list[int]]:
+    """Indices of ``specs`` in the rollout batches :func:`simulate_batch` runs: the trials
+    of one shape and speed (a batch shares a scene and a path length), in their order,
+    cut by :func:`batches`."""
+    by_shape: dict[tuple[str, float], list[int]] = {}
+    for i, s in enumerate(specs):
+        by_shape.setdefault((s.shape, s.speed_mm_s), []).append(i)
+    return [members[part] for members in by_shape.values() for part in batches(len(members))]
+
+
 def simulate_batch(
     specs: Sequence[TrialSpec],
     *,
@@ -485,12 +495,8 @@ def simulate_batch(
         threads = rollout_threads()
     if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
         raise ValueError(f"threads must be an integer >= 1; got {threads!r}")
-    # Rollout batches share a scene and a length: group by shape and speed.
-    by_shape: dict[tuple[str, float], list[int]] = {}
-    for i, s in enumerate(specs):
-        by_shape.setdefault((s.shape, s.speed_mm_s), []).append(i)
     results: list[Trial | None] = [None] * len(specs)
-    chunks = [members[part] for members in by_shape.values() for part in batches(len(members))]
+    chunks = rollout_chunks(specs)
     bar = None
     if progress:
         from tqdm import tqdm
