@@ -84,11 +84,6 @@ def force_loop_gain_m_per_n_s(config: SynthConfig, force_n: float) -> float:
     return 2 * math.pi * m.force_loop_bandwidth_hz / k_series
 
 
-#: Surface updates between looks at the MuJoCo warning counters (a failed batch stops
-#: within this many periods; the caller checks the counters at the end in any case).
-_WARNING_CHECK_PERIODS = 16
-
-
 class ClosedLoop:
     """Runs a batch of same-shape trials (``models`` share one scene) to ``steps`` steps;
     returns sensordata ``(b, steps, nsensordata)`` and the specimen heights ``(b, steps)``.
@@ -232,8 +227,10 @@ class ClosedLoop:
             height_out[g] = h
             if qpos_out is not None:
                 qpos_out[:, g] = state_buf[:, :, 1 : 1 + self.nq]
-            if g % _WARNING_CHECK_PERIODS == 0 and any(w.any() for w in warnings):
+            if any(w.any() for w in warnings):
                 # A trial went unstable: the caller reports it; the rest is not needed.
+                # Every rollout call clears the counters of the data it runs on, so they
+                # are read after each call, before the next one can clear them.
                 return _trial_major(sens_out), _trial_major(height_out)
             state = state_buf[:, k - 1].copy()
             warm = (state_buf[:, k - 1, qvel] - state_buf[:, k - 2, qvel]) / dt

@@ -532,6 +532,33 @@ def test_a_finger_that_loses_contact_raises():
         synth.simulate("square", "wood", force_n=0.05, speed_mm_s=20.0, config=config)
 
 
+def test_a_mujoco_warning_in_any_period_raises(monkeypatch):
+    """A MuJoCo warning raised in one controller period is reported even when the
+    periods after it run clean: each rollout call clears the counters, so the loop must
+    read them after every call."""
+    from synth import closed_loop
+
+    bad = int(mujoco.mjtWarning.mjWARN_BADQACC)
+    real = closed_loop._rollout.Rollout
+
+    class WarnsOnce:
+        """MuJoCo's rollout, with a warning counted on the data after the third call."""
+
+        def __init__(self, **kwargs):
+            self.runner = real(**kwargs)
+            self.calls = 0
+
+        def rollout(self, models, datas, *args):
+            self.runner.rollout(models, datas, *args)
+            self.calls += 1
+            if self.calls == 3:
+                datas[0].warning[bad].number = 1
+
+    monkeypatch.setattr(closed_loop, "_rollout", type("R", (), {"Rollout": WarnsOnce}))
+    with pytest.raises(SimulationError, match=r"mjWARN_BADQACC.*shape='square'"):
+        synth.simulate("square", "wood", config=NOMINAL)
+
+
 def test_line_average_variance_matches_a_simulated_average():
     """The variance factor of roughness averaged along a ridge's line contact agrees with
     averaging a simulated exponentially correlated profile over windows of that length,
