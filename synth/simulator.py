@@ -537,10 +537,14 @@ def simulate_batch(
 def raw_rollout(
     specs: Sequence[TrialSpec], *, config: SynthConfig | None = None, threads: int | None = None
 ) -> float:
-    """Physics only, for speed references: one open-loop ``mujoco.rollout`` call per chunk
-    of ``specs``' scenes, the same number of steps as :func:`simulate_batch`, with the
-    path and the initial force set point but no controller, texture, sensor chain, checks
-    or storage. Returns the rollout wall seconds.
+    """Physics only, for speed references: one open-loop ``mujoco.rollout`` call per
+    rollout batch of ``specs`` (the trials of one shape and speed, cut as
+    :func:`rollout_chunks` cuts them), with the path and the initial force set point but
+    no controller, texture, sensor chain, checks or storage. Every batch runs to the
+    longest plan among all of its shape's and speed's trials, where :func:`simulate_batch`
+    stops each batch at its own longest plan; the plans' lengths differ by their
+    placement's scatter, and a batch of tens of trials holds one near the longest, so the
+    two step counts differ by little. Returns the rollout wall seconds.
     """
     config = _check_config(config)
     threads = threads or rollout_threads()

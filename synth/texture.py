@@ -283,7 +283,8 @@ def layer_position(
     if layers == 1:
         return np.zeros(load_n.shape, dtype=np.intp), np.zeros(load_n.shape)
     pos = np.log(np.maximum(load_n, 1e-9) / first_load_n) * (1.0 / math.log(LOAD_RATIO))
-    np.clip(pos, 0.0, layers - 1.0, out=pos)
+    np.maximum(pos, 0.0, out=pos)  # clamped in place (np.clip's wrapper costs more)
+    np.minimum(pos, layers - 1.0, out=pos)
     j = np.minimum(pos.astype(np.intp), layers - 2)
     return j, pos - j
 
