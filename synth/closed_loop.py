@@ -84,6 +84,14 @@ def force_loop_gain_m_per_n_s(config: SynthConfig, force_n: float) -> float:
     return 2 * math.pi * m.force_loop_bandwidth_hz / k_series
 
 
+#: Where each trial's MuJoCo clock starts (``_initial_states``), in seconds. MuJoCo resets
+#: a trial whose state turns bad (NaN, or beyond ``mjMAXVAL``) and restarts its clock at
+#: zero, so from any start above zero a reset shows as a clock that did not advance by a
+#: period's steps, even a reset in the very first step. Nothing in the scene depends on
+#: the clock's value.
+CLOCK_START_S = 1.0
+
+
 class ClosedLoop:
     """Runs a batch of same-shape trials (``models`` share one scene) to ``steps`` steps;
     returns sensordata ``(b, steps, nsensordata)`` and the specimen heights ``(b, steps)``.
@@ -148,7 +156,9 @@ class ClosedLoop:
         """Roll the batch ``steps`` physics steps (a multiple of the update period) from
         ``initial_state`` ``(b, nstate)`` on ``datas`` (one per thread). With
         ``record_qpos`` the joint positions ``(b, steps, nq)`` are kept in ``qpos_``
-        (for replaying a trial in a viewer)."""
+        (for replaying a trial in a viewer). The run stops at the end of the first period
+        in which MuJoCo resets a trial or counts a warning (the outputs' later steps are
+        then undefined); ``unstable_`` holds the indices of the trials it reset."""
         cfg = self.config
         mot = cfg.motion
         dt, k = mot.timestep_s, mot.surface_steps
@@ -199,6 +209,7 @@ class ClosedLoop:
         wrist_sum = np.zeros(b)
         if self.pieces is not None:
             self.pieces.update(np.stack([self.x_ref[:, 0], self.y_ref[:, 0]], axis=1))
+        self.unstable_ = np.zeros(0, dtype=np.intp)
         runner = _rollout.Rollout(nthread=nthread if nthread > 1 else 0)
         spec = int(scene_mod.CONTROL_SPEC)
         for g in range(nseg):
@@ -227,10 +238,13 @@ class ClosedLoop:
             height_out[g] = h
             if qpos_out is not None:
                 qpos_out[:, g] = state_buf[:, :, 1 : 1 + self.nq]
-            if any(w.any() for w in warnings):
-                # A trial went unstable: the caller reports it; the rest is not needed.
-                # Every rollout call clears the counters of the data it runs on, so they
-                # are read after each call, before the next one can clear them.
+            # A trial went unstable: the caller reports it; the rest is not needed. The
+            # rollout clears a data's warning counters before each trial it runs there, so
+            # they tell of the last trial on each data only; a reset trial is found by its
+            # clock (CLOCK_START_S), the other warnings by the counters.
+            reset = state_buf[:, k - 1, 0] < state[:, 0] + (k - 0.5) * dt
+            if reset.any() or any(w.any() for w in warnings):
+                self.unstable_ = np.flatnonzero(reset)
                 return _trial_major(sens_out), _trial_major(height_out)
             state = state_buf[:, k - 1].copy()
             warm = (state_buf[:, k - 1, qvel] - state_buf[:, k - 2, qvel]) / dt

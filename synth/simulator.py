@@ -42,7 +42,7 @@ from tactile_synth.threads import rollout_threads
 
 from . import contact, sensors, texture
 from . import scene as scene_mod
-from .closed_loop import ClosedLoop, LoopTrial
+from .closed_loop import CLOCK_START_S, ClosedLoop, LoopTrial
 from .config import SynthConfig
 from .trial import N_SAMPLES, SAMPLE_RATE_HZ, WINDOW_S, Trial, TrialSpec, class_index
 
@@ -322,6 +322,7 @@ def _initial_states(plans: Sequence[Plan]) -> np.ndarray:
     data = mujoco.MjData(plans[0].model)  # the plans share one scene: one data, reset per plan
     for p in plans:
         mujoco.mj_resetData(p.model, data)
+        data.time = CLOCK_START_S
         data.qpos[:] = p.initial_qpos
         control = np.zeros(lay["size"].stop)
         control[lay["ctrl"]] = (p.loop.x_ref[0], p.loop.y_ref[0], p.loop.z_ref0)
@@ -344,14 +345,27 @@ def _roll(
     )
     steps = max(p.steps for p in plans)
     sens, heights = loop.run(datas, _initial_states(plans), steps, len(datas))
-    warned = [w for d in datas for w in range(len(d.warning)) if d.warning[w].number > 0]
-    if warned:
-        if len(plans) > 1:  # find the culprit trial(s) one by one
-            for p in plans:
-                _roll([p], datas[:1], config)
-        names = ", ".join(mujoco.mjtWarning(w).name for w in sorted(set(warned)))
-        raise SimulationError(f"MuJoCo warning {names} while simulating {_describe(plans[0].spec)}")
+    _check_stable(loop, plans, datas, config)
     return sens, heights
+
+
+def _check_stable(
+    loop: ClosedLoop, plans: Sequence[Plan], datas: list[mujoco.MjData], config: SynthConfig
+) -> None:
+    """Raise :class:`SimulationError` naming the trial of ``loop``'s run that MuJoCo reset
+    or warned about, if any."""
+    warned = sorted({w for d in datas for w in range(len(d.warning)) if d.warning[w].number > 0})
+    unstable = loop.unstable_
+    if not warned and not unstable.size:
+        return
+    if len(plans) > 1:  # alone, a trial's warnings stay on its data: find the culprit
+        for i in unstable if unstable.size else range(len(plans)):
+            _roll([plans[i]], datas[:1], config)
+    culprit = _describe(plans[unstable[0] if unstable.size else 0].spec)
+    if not warned:
+        raise SimulationError(f"MuJoCo reset the unstable simulation of {culprit}")
+    names = ", ".join(mujoco.mjtWarning(w).name for w in warned)
+    raise SimulationError(f"MuJoCo warning {names} while simulating {culprit}")
 
 
 def _unrock(vectors: np.ndarray, c: np.ndarray, s: np.ndarray) -> np.ndarray:
@@ -585,6 +599,7 @@ def replay(spec: TrialSpec, config: SynthConfig | None = None):
     loop = ClosedLoop([p.model], [p.loop], config, shape=spec.shape)
     datas = [mujoco.MjData(p.model)]
     _, heights = loop.run(datas, _initial_states([p]), p.steps, 1, record_qpos=True)
+    _check_stable(loop, [p], datas, config)
     return p.model, loop.qpos_[0], heights[0]
 
 

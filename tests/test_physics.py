@@ -559,6 +559,23 @@ def test_a_mujoco_warning_in_any_period_raises(monkeypatch):
         synth.simulate("square", "wood", config=NOMINAL)
 
 
+@pytest.mark.parametrize("break_it", ["weightless", "coarse_step"])
+def test_an_unstable_trial_that_is_not_the_last_on_its_data_raises(break_it):
+    """MuJoCo resets a trial whose state turns bad and clears a data's warning counters
+    before each trial it runs there: a reset trial followed by a healthy one on the same
+    data is still reported, by name, whether it fails in its first step or later."""
+    plans = [sim.plan(TrialSpec("square", "wood", seed=s), NOMINAL) for s in (3, 4)]
+    model = plans[0].model
+    if break_it == "weightless":  # accelerations beyond MuJoCo's bound in the first step
+        model.body_mass[1:] *= 1e-12
+        model.body_inertia[1:] *= 1e-12
+    else:  # a 10 ms step: the stiff drive diverges over a few steps
+        model.opt.timestep = 0.01
+    datas = [mujoco.MjData(plans[1].model)]  # both trials run on one data, in order
+    with pytest.raises(SimulationError, match=r"mjWARN_BADQACC.*seed=3\b"):
+        sim._roll(plans, datas, NOMINAL)
+
+
 def test_line_average_variance_matches_a_simulated_average():
     """The variance factor of roughness averaged along a ridge's line contact agrees with
     averaging a simulated exponentially correlated profile over windows of that length,
