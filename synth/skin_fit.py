@@ -22,8 +22,9 @@ from scipy import optimize
 
 from . import contact
 from . import scene as scene_mod
-from .closed_loop import ClosedLoop, LoopTrial
+from .closed_loop import CLOCK_START_S, ClosedLoop, LoopTrial
 from .config import SynthConfig
+from .simulator import SimulationError
 from .texture import FeltSurface
 
 #: Loads the fit covers: the perturbation grid's 0.6-1.4 N with margin on both sides.
@@ -60,6 +61,7 @@ def measure_indentation(config: SynthConfig, forces_n: Sequence[float]) -> np.nd
         control = np.zeros(lay["size"].stop)
         control[lay["ctrl"]] = (-0.02, 0.0, z_ref)
         mujoco.mj_setState(model, data, control, scene_mod.CONTROL_SPEC)
+        data.time = CLOCK_START_S  # a reset shows in the clock (closed_loop.CLOCK_START_S)
         state = np.empty(mujoco.mj_stateSize(model, scene_mod.STATE_SPEC))
         mujoco.mj_getState(model, data, state, scene_mod.STATE_SPEC)
         models.append(model)
@@ -79,6 +81,15 @@ def measure_indentation(config: SynthConfig, forces_n: Sequence[float]) -> np.nd
     loop = ClosedLoop(models, trials, cfg)
     datas = [mujoco.MjData(models[0])]
     sens, _ = loop.run(datas, np.stack(states), steps, 1)
+    counters = datas[0].warning  # the last press's: the rollout clears them per trial
+    warned = [mujoco.mjtWarning(w).name for w in range(len(counters)) if counters[w].number > 0]
+    skin = f"the skin (solref {finger.skin_solref}, solimp {finger.skin_solimp})"
+    if loop.unstable_.size:
+        at = forces_n[int(loop.unstable_[0])]
+        raise SimulationError(f"MuJoCo reset the unstable press of {skin} with {at:g} N")
+    if warned:
+        at = forces_n[-1]
+        raise SimulationError(f"MuJoCo warning {', '.join(warned)} pressing {skin} with {at:g} N")
     depth = sens[:, -1, scene_mod.sensor_columns()["contact_depth"]]
     return np.maximum(-depth[:, 1], 0.0)
 
