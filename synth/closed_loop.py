@@ -158,7 +158,9 @@ class ClosedLoop:
         ``record_qpos`` the joint positions ``(b, steps, nq)`` are kept in ``qpos_``
         (for replaying a trial in a viewer). The run stops at the end of the first period
         in which MuJoCo resets a trial or counts a warning (the outputs' later steps are
-        then undefined); ``unstable_`` holds the indices of the trials it reset."""
+        then undefined); ``unstable_`` holds the indices of the trials it reset and
+        ``warned_`` the names of the warnings MuJoCo counted (of the last trial on each
+        data)."""
         cfg = self.config
         mot = cfg.motion
         dt, k = mot.timestep_s, mot.surface_steps
@@ -210,6 +212,7 @@ class ClosedLoop:
         if self.pieces is not None:
             self.pieces.update(np.stack([self.x_ref[:, 0], self.y_ref[:, 0]], axis=1))
         self.unstable_ = np.zeros(0, dtype=np.intp)
+        self.warned_: tuple[str, ...] = ()
         runner = _rollout.Rollout(nthread=nthread if nthread > 1 else 0)
         spec = int(scene_mod.CONTROL_SPEC)
         for g in range(nseg):
@@ -245,6 +248,7 @@ class ClosedLoop:
             reset = state_buf[:, k - 1, 0] < state[:, 0] + (k - 0.5) * dt
             if reset.any() or any(w.any() for w in warnings):
                 self.unstable_ = np.flatnonzero(reset)
+                self.warned_ = _warning_names(datas)
                 return _trial_major(sens_out), _trial_major(height_out)
             state = state_buf[:, k - 1].copy()
             warm = (state_buf[:, k - 1, qvel] - state_buf[:, k - 2, qvel]) / dt
@@ -262,6 +266,12 @@ class ClosedLoop:
         if qpos_out is not None:
             self.qpos_ = qpos_out.reshape(b, steps, self.nq)
         return _trial_major(sens_out), _trial_major(height_out)
+
+
+def _warning_names(datas: Sequence[mujoco.MjData]) -> tuple[str, ...]:
+    """Names of the MuJoCo warnings counted on any of ``datas``, in MuJoCo's order."""
+    counted = {w for d in datas for w in range(len(d.warning)) if d.warning[w].number > 0}
+    return tuple(mujoco.mjtWarning(w).name for w in sorted(counted))
 
 
 def _extend(ref: np.ndarray, n: int) -> np.ndarray:

@@ -354,8 +354,7 @@ def _check_stable(
 ) -> None:
     """Raise :class:`SimulationError` naming the trial of ``loop``'s run that MuJoCo reset
     or warned about, if any."""
-    warned = sorted({w for d in datas for w in range(len(d.warning)) if d.warning[w].number > 0})
-    unstable = loop.unstable_
+    warned, unstable = loop.warned_, loop.unstable_
     if not warned and not unstable.size:
         return
     if len(plans) > 1:  # alone, a trial's warnings stay on its data: find the culprit
@@ -364,8 +363,7 @@ def _check_stable(
     culprit = _describe(plans[unstable[0] if unstable.size else 0].spec)
     if not warned:
         raise SimulationError(f"MuJoCo reset the unstable simulation of {culprit}")
-    names = ", ".join(mujoco.mjtWarning(w).name for w in warned)
-    raise SimulationError(f"MuJoCo warning {names} while simulating {culprit}")
+    raise SimulationError(f"MuJoCo warning {', '.join(warned)} while simulating {culprit}")
 
 
 def _unrock(vectors: np.ndarray, c: np.ndarray, s: np.ndarray) -> np.ndarray:

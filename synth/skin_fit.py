@@ -81,15 +81,13 @@ def measure_indentation(config: SynthConfig, forces_n: Sequence[float]) -> np.nd
     loop = ClosedLoop(models, trials, cfg)
     datas = [mujoco.MjData(models[0])]
     sens, _ = loop.run(datas, np.stack(states), steps, 1)
-    counters = datas[0].warning  # the last press's: the rollout clears them per trial
-    warned = [mujoco.mjtWarning(w).name for w in range(len(counters)) if counters[w].number > 0]
     skin = f"the skin (solref {finger.skin_solref}, solimp {finger.skin_solimp})"
     if loop.unstable_.size:
         at = forces_n[int(loop.unstable_[0])]
         raise SimulationError(f"MuJoCo reset the unstable press of {skin} with {at:g} N")
-    if warned:
-        at = forces_n[-1]
-        raise SimulationError(f"MuJoCo warning {', '.join(warned)} pressing {skin} with {at:g} N")
+    if loop.warned_:  # the last press's: the rollout clears the counters per trial
+        warned = ", ".join(loop.warned_)
+        raise SimulationError(f"MuJoCo warning {warned} pressing {skin} with {forces_n[-1]:g} N")
     depth = sens[:, -1, scene_mod.sensor_columns()["contact_depth"]]
     return np.maximum(-depth[:, 1], 0.0)
 
