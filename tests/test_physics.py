@@ -115,6 +115,15 @@ def test_skin_indentation_follows_hertz():
     assert 0.3e-3 < want[1] < 2e-3  # a fingertip-like fraction of a millimetre to 2 mm
 
 
+def test_the_skin_defaults_are_what_the_calibration_fits():
+    """``Finger``'s skin contact parameters are the fit's output on the default scene
+    (``scripts/calibrate.py skin``), so the calibration is reproduced by its script."""
+    solref, solimp = skin_fit.fit_skin_contact(synth.SynthConfig())
+    finger = synth.SynthConfig().finger
+    np.testing.assert_allclose(solref, finger.skin_solref, rtol=1e-3)
+    np.testing.assert_allclose(solimp, finger.skin_solimp, rtol=1e-3)
+
+
 def _flat(material="wood", force_n=1.0, speed_mm_s=10.0, seed=0, config=FLAT):
     return synth.simulate(
         "square", material, force_n=force_n, speed_mm_s=speed_mm_s, seed=seed, config=config
