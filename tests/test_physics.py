@@ -195,7 +195,7 @@ def test_a_stuck_pad_feels_no_texture_while_the_robot_moves():
     they also read the stick-slip's own traction, which is not texture."""
     bending = dataclasses.replace(FLAT, pvdf=dataclasses.replace(FLAT.pvdf, shear_strain_per_n=0))
     sliding = _flat("aluminum", config=_fine_texture_config(bending))
-    law = FrictionLaw(kinetic=0.4, static=1.6, stribeck_velocity_m_s=2e-3, load_exponent=0.0)
+    law = FrictionLaw(kinetic=0.4, static=2.0, stribeck_velocity_m_s=2e-3, load_exponent=0.0)
     sticky = _flat("aluminum", config=_fine_texture_config(bending, law))
     slip = sticky.truth["slip_speed_m_s"]
     snapping = np.convolve(slip > 3e-3, np.ones(81), mode="same") > 0
