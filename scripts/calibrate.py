@@ -48,6 +48,15 @@ source gives; nothing is tuned per shape, material or class.
         the rows it measured; ``--resume`` reuses the rows of DIR's table measured with
         the same trials per class, seeds and configuration, and measures the rest.
 
+    python3 scripts/calibrate.py picks DATA [--top 12]
+        Not a calibration either: what AFOP-ML's selections on DATA's generalisation
+        training splits lean on. For every cross-shape fold and cross-material split
+        (fitted on the training split alone, as the sweep fits them) it lists the first
+        ``--top`` features of the NCA ranking, whether the D-scan selected each, and the
+        shares of each feature's variance on that split between the shapes' means and
+        between the materials' means inside a shape; and counts, per sensor, the selected
+        features that vary more between materials than between shapes (material-led).
+
     python3 scripts/calibrate.py whatif [--set SECTION.FIELD=VALUE ...]
                                         [--trials-per-class 20] [--seeds 1]
                                         [--closed-set EPISODES [--closed-set-seeds 1]]
@@ -435,6 +444,23 @@ def _evaluate(config: synth.SynthConfig, trials_per_class: int, where: Path, see
 PAPER_D = {"cross_shape": 6, "cross_material": 12}
 
 
+def _training_fits(data: synth.Dataset, features: np.ndarray):
+    """``(protocol, split, fitted AFOP-ML)`` for every cross-shape fold and cross-material
+    split of ``data``, each fitted (seed 0) on its training split alone."""
+    from benchmark.splits import cross_material_splits, cross_shape_splits
+    from models.afop import AFOPML
+
+    for protocol, splits in (
+        ("cross_shape", cross_shape_splits(data)),
+        ("cross_material", cross_material_splits(data)),
+    ):
+        for split in splits:
+            fitted = AFOPML(seed=0).fit(
+                data.signals[split.train], data.label[split.train], features=features[split.train]
+            )
+            yield protocol, split, fitted
+
+
 def _selection_shares(data: synth.Dataset) -> dict:
     """Mean PVDF share of AFOP-ML's top-D features over the cross-shape folds and over the
     cross-material splits, each fitted on its training split only; the median D each
@@ -442,21 +468,16 @@ def _selection_shares(data: synth.Dataset) -> dict:
     share of the first :data:`PAPER_D` features of each split's NCA ranking, the share
     the paper's selection sizes would give (``pvdf_share_paper_d_*``)."""
     from benchmark.interpret import sensor_shares
-    from benchmark.splits import cross_material_splits, cross_shape_splits
-    from models.afop import AFOPML
     from models.features import FEATURE_NAMES, extract
 
     features = extract(data.signals)
     out = {}
-    for protocol, splits in (
-        ("cross_shape", cross_shape_splits(data)),
-        ("cross_material", cross_material_splits(data)),
-    ):
+    fits: dict[str, list] = {"cross_shape": [], "cross_material": []}
+    for protocol, _split, fitted in _training_fits(data, features):
+        fits[protocol].append(fitted)
+    for protocol, fitted_splits in fits.items():
         shares, sizes, at_paper_d = [], [], []
-        for split in splits:
-            fitted = AFOPML(seed=0).fit(
-                data.signals[split.train], data.label[split.train], features=features[split.train]
-            )
+        for fitted in fitted_splits:
             shares.append(sensor_shares(fitted.selected_, FEATURE_NAMES)[0])
             sizes.append(len(fitted.selected_))
             top = fitted.ncfs_.ranking_[: PAPER_D[protocol]]
@@ -465,6 +486,120 @@ def _selection_shares(data: synth.Dataset) -> dict:
         out[f"d_{protocol}"] = float(np.median(sizes))
         out[f"pvdf_share_paper_d_{protocol}"] = float(np.mean(at_paper_d))
     return out
+
+
+def variance_shares(
+    features: np.ndarray, shape: np.ndarray, material: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(shape share, material share)`` of each feature's variance over the trials given,
+    ``(n, f)`` features: the share between the shapes' means, and the share between the
+    materials' means inside each shape (the shape-and-material classes' means around their
+    shape's mean). The rest lies within the classes. A feature with no variance has 0 for
+    both."""
+    x = np.asarray(features, dtype=float)
+    shape, material = np.asarray(shape), np.asarray(material)
+    centred = x - x.mean(axis=0)
+    total = np.square(centred).sum(axis=0)
+
+    def between(groups: np.ndarray) -> np.ndarray:
+        _, index = np.unique(groups, axis=0, return_inverse=True)
+        index = index.ravel()
+        counts = np.bincount(index)
+        sums = np.zeros((counts.size, x.shape[1]))
+        np.add.at(sums, index, centred)
+        return (np.square(sums) / counts[:, None]).sum(axis=0)
+
+    by_shape = between(shape)
+    by_class = between(np.stack([shape, material], axis=1))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        shape_share = np.where(total > 0, by_shape / total, 0.0)
+        material_share = np.where(total > 0, (by_class - by_shape) / total, 0.0)
+    return shape_share, np.maximum(material_share, 0.0)
+
+
+#: Cuts of the NCA ranking at which ``picks`` gives the PVDF share of the features
+#: before it, so that two protocols' shares can be compared at the same feature count.
+PICKS_CUTS = (6, 12, 24, 48)
+
+
+def selection_picks(data: synth.Dataset, top: int) -> list[dict]:
+    """Per cross-shape fold and cross-material split of ``data`` (AFOP-ML fitted on the
+    training split alone, as :func:`_selection_shares` fits it): the first ``top`` features
+    of the NCA ranking, each with its sensor, whether the D-scan selected it, and its
+    :func:`variance_shares` on that training split; and, of the selected features of each
+    sensor, how many carry more of their variance between materials than between shapes
+    (``material_led``); and the PVDF share of the first k ranked features for each k of
+    :data:`PICKS_CUTS` (``pvdf_share_first``)."""
+    from benchmark.interpret import sensor_shares
+    from models.features import FEATURE_NAMES, extract
+
+    features = extract(data.signals)
+    shape, material = np.asarray(data.shape), np.asarray(data.material)
+    out = []
+    for protocol, split, fitted in _training_fits(data, features):
+        train = split.train
+        by_shape, by_material = variance_shares(features[train], shape[train], material[train])
+        selected = {int(i) for i in fitted.selected_}
+        ranked = [int(i) for i in fitted.ncfs_.ranking_]
+        rows = [
+            {
+                "rank": r + 1,
+                "feature": FEATURE_NAMES[i],
+                "sensor": FEATURE_NAMES[i].split(".", 1)[0].rstrip("12"),
+                "selected": i in selected,
+                "shape_share": float(by_shape[i]),
+                "material_share": float(by_material[i]),
+            }
+            for r, i in enumerate(ranked[:top])
+        ]
+        counts = {}
+        for sensor in ("pvdf", "sg"):
+            mine = [i for i in selected if FEATURE_NAMES[i].startswith(sensor)]
+            led = sum(by_material[i] > by_shape[i] for i in mine)
+            counts[sensor] = {"selected": len(mine), "material_led": int(led)}
+        out.append(
+            {
+                "protocol": protocol,
+                "fold": str(split.fold),
+                "d": len(selected),
+                "top": rows,
+                **counts,
+                "pvdf_share_first": {
+                    k: sensor_shares(ranked[:k], FEATURE_NAMES)[0]
+                    for k in PICKS_CUTS
+                    if k <= len(ranked)
+                },
+            }
+        )
+    return out
+
+
+def cmd_picks(args: argparse.Namespace) -> int:
+    try:
+        data = synth.load_dataset(args.data)
+    except (OSError, ValueError) as exc:
+        raise SystemExit(f"DATA ({args.data}): {exc}") from None
+    if len(np.unique(np.asarray(data.material))) < 2 or len(np.unique(np.asarray(data.shape))) < 3:
+        raise SystemExit(
+            f"DATA ({args.data}): the generalisation splits need at least 3 shapes and 2 materials"
+        )
+    for fit in selection_picks(data, args.top):
+        print(
+            f"{fit['protocol']} {fit['fold']}: D {fit['d']}; selected PVDF features "
+            f"{fit['pvdf']['selected']} ({fit['pvdf']['material_led']} material-led), SG "
+            f"{fit['sg']['selected']} ({fit['sg']['material_led']} material-led)"
+        )
+        print(
+            "  PVDF share of the first k ranked: "
+            + ", ".join(f"k={k} {v:.2f}" for k, v in fit["pvdf_share_first"].items())
+        )
+        print("  rank  feature                                 sel  shape  material")
+        for row in fit["top"]:
+            print(
+                f"  {row['rank']:4d}  {row['feature']:38s}  {'*' if row['selected'] else ' '}"
+                f"    {row['shape_share']:.2f}   {row['material_share']:.2f}"
+            )
+    return 0
 
 
 #: The metrics whose spread over dataset seeds the sweep reports beside their mean.
@@ -845,6 +980,12 @@ def main(argv: list[str] | None = None) -> int:
         help="keep the rows of --out's table measured with the same trials and seeds",
     )
     p.set_defaults(func=cmd_sweep)
+    p = sub.add_parser(
+        "picks", help="what the features AFOP-ML's training-split selections rank first tell apart"
+    )
+    p.add_argument("data", metavar="DATA", help="a dataset (e.g. data/paper)")
+    p.add_argument("--top", type=int_arg, default=12, help="ranked features to list per split")
+    p.set_defaults(func=cmd_picks)
     p = sub.add_parser("whatif", help="one configuration, any values (not a calibration)")
     _add_set_option(p, "set a numeric configuration field")
     p.add_argument("--trials-per-class", type=int_arg, default=20)
@@ -871,6 +1012,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--seeds must be at least 1")
     if getattr(args, "closed_set", 0) < 0:
         parser.error("--closed-set must be 0 (off) or a number of episodes")
+    if getattr(args, "top", 1) < 1:
+        parser.error("--top must be at least 1")
     if getattr(args, "closed_set_seeds", 1) < 1:
         parser.error("--closed-set-seeds must be at least 1")
     if getattr(args, "closed_set_seeds", 1) > 1 and not args.closed_set:
