@@ -73,7 +73,7 @@ source gives; nothing is tuned per shape, material or class.
 
 The sweep simulates 36 classes x ``--trials-per-class`` trials per candidate and seed
 (720 at the default of 20); at 30 trials per class and three seeds a candidate takes
-about 75 s on 2 idle cores, the selection included. The default configuration is
+about 140 s on 2 idle cores, the selection included. The default configuration is
 evaluated once.
 """
 
