@@ -60,6 +60,7 @@ source gives; nothing is tuned per shape, material or class.
     python3 scripts/calibrate.py whatif [--set SECTION.FIELD=VALUE ...]
                                         [--trials-per-class 20] [--seeds 1]
                                         [--closed-set EPISODES [--closed-set-seeds 1]]
+                                        [--keep DIR]
         Not a calibration: one configuration with any numeric field set to any value its
         dataclass accepts, inside or outside a cited range (``materials.texture_scale``
         as in the sweep; ``materials.marks_scale`` scales the periodic marks alone), to
@@ -68,8 +69,9 @@ source gives; nothing is tuned per shape, material or class.
         ``--closed-set N``, AFOP-ML's closed-set 1-shot row over N episodes on a
         paper-preset dataset (seed 0) of that configuration, with the fit's D, PVDF share
         and t-SNE indicators; ``--closed-set-seeds M`` measures that row on the datasets
-        of seeds 0..M-1 and adds each figure's mean and standard deviation over them. The
-        defaults never come from it.
+        of seeds 0..M-1 and adds each figure's mean and standard deviation over them.
+        ``--keep DIR`` keeps the measured dataset of seed 0 in DIR, a new directory (for
+        ``picks`` or ``tactile-synth diagnose``). The defaults never come from it.
 
 The sweep simulates 36 classes x ``--trials-per-class`` trials per candidate and seed
 (720 at the default of 20); at 30 trials per class and three seeds a candidate takes
@@ -611,10 +613,21 @@ SPREAD_KEYS = (
 )
 
 
-def _measured(config: synth.SynthConfig, trials_per_class: int, seeds: int, where: Path) -> dict:
+def _measured(
+    config: synth.SynthConfig,
+    trials_per_class: int,
+    seeds: int,
+    where: Path,
+    keep: Path | None = None,
+) -> dict:
     """:func:`_evaluate` of ``config`` on dataset seeds 0..``seeds``-1, summarised by
-    :func:`_over_seeds`."""
-    return _over_seeds([_evaluate(config, trials_per_class, where, seed) for seed in range(seeds)])
+    :func:`_over_seeds`; with ``keep``, the dataset of seed 0 is moved there."""
+    per_seed = []
+    for seed in range(seeds):
+        per_seed.append(_evaluate(config, trials_per_class, where, seed))
+        if keep is not None and seed == 0:
+            shutil.move(str(where), str(keep))
+    return _over_seeds(per_seed)
 
 
 def _over_seeds(per_seed: list[dict]) -> dict:
@@ -913,6 +926,15 @@ def cmd_whatif(args: argparse.Namespace) -> int:
     from synth.simulator import SaturatedTrialError
 
     config = _configured(args.set)
+    keep = None
+    if args.keep is not None:
+        keep = Path(args.keep)
+        try:
+            check_out_dir(keep, "--keep")
+        except OSError as exc:
+            raise SystemExit(str(exc)) from None
+        if keep.exists():
+            raise SystemExit(f"--keep {keep} already exists; choose a new directory")
     noise = amplifier_noise_v(config)
     print(
         "what-if configuration: "
@@ -923,8 +945,10 @@ def cmd_whatif(args: argparse.Namespace) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         try:
             where = Path(tmp) / "grid"
-            metrics = _measured(config, args.trials_per_class, args.seeds, where)
+            metrics = _measured(config, args.trials_per_class, args.seeds, where, keep)
             print(", ".join(f"{k} {_fmt(k, v)}" for k, v in metrics.items()), flush=True)
+            if keep is not None:
+                print(f"dataset of seed 0 kept in {keep}", flush=True)
             if args.closed_set:
                 _closed_set_rows(config, args.closed_set, args.closed_set_seeds, Path(tmp))
         except (SaturationError, SaturatedTrialError) as exc:
@@ -1003,6 +1027,11 @@ def main(argv: list[str] | None = None) -> int:
         default=1,
         metavar="N",
         help="measure the closed-set row on paper-preset datasets of seeds 0..N-1 (default 1)",
+    )
+    p.add_argument(
+        "--keep",
+        metavar="DIR",
+        help="keep the dataset of seed 0 in this new directory (for picks, diagnose)",
     )
     p.set_defaults(func=cmd_whatif)
     args = parser.parse_args(argv)

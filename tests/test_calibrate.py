@@ -271,6 +271,28 @@ def test_whatif_evaluates_the_set_configuration_over_every_seed(monkeypatch, cap
     assert "closed_set_d 8.0 +- 0.0, tsne_dgi 4.769 +- 0.000" in out
 
 
+def test_whatif_keeps_the_dataset_of_seed_0_where_asked(tmp_path, monkeypatch, capsys):
+    calibrate = _calibrate_module()
+    shares = ("cross_shape", "cross_material", "paper_d_cross_shape", "paper_d_cross_material")
+
+    def evaluate(config, trials_per_class, where, seed):
+        # Stands in for a generation into ``where`` (overwritten by each seed).
+        where.mkdir(parents=True, exist_ok=True)
+        (where / "seed").write_text(str(seed))
+        return {"class_all": 0.5, **{f"pvdf_share_{k}": 0.3 for k in shares}}
+
+    monkeypatch.setattr(calibrate, "_evaluate", evaluate)
+    keep = tmp_path / "kept"
+    assert calibrate.main(["whatif", "--seeds", "3", "--keep", str(keep)]) == 0
+    assert (keep / "seed").read_text() == "0"
+    assert f"dataset of seed 0 kept in {keep}" in capsys.readouterr().out
+    with pytest.raises(SystemExit, match=re.escape(f"--keep {keep} already exists")):
+        calibrate.main(["whatif", "--keep", str(keep)])
+    (tmp_path / "file").write_text("")
+    with pytest.raises(SystemExit, match=re.escape(f"--keep {tmp_path / 'file'} is a file")):
+        calibrate.main(["whatif", "--keep", str(tmp_path / "file")])
+
+
 def test_whatif_without_a_setting_measures_the_defaults(monkeypatch, capsys):
     calibrate = _calibrate_module()
     seen = []
