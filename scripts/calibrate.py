@@ -533,10 +533,11 @@ def selection_picks(data: synth.Dataset, top: int) -> list[dict]:
     (``material_led``); and the PVDF share of the first k ranked features for each k of
     :data:`PICKS_CUTS` (``pvdf_share_first``)."""
     from benchmark.interpret import sensor_shares
-    from models.features import FEATURE_NAMES, extract
+    from models.features import FEATURE_NAMES, extract, sensor_of
 
     features = extract(data.signals)
     shape, material = np.asarray(data.shape), np.asarray(data.material)
+    sensors = [sensor_of(name).lower() for name in FEATURE_NAMES]
     out = []
     for protocol, split, fitted in _training_fits(data, features):
         train = split.train
@@ -547,7 +548,7 @@ def selection_picks(data: synth.Dataset, top: int) -> list[dict]:
             {
                 "rank": r + 1,
                 "feature": FEATURE_NAMES[i],
-                "sensor": FEATURE_NAMES[i].split(".", 1)[0].rstrip("12"),
+                "sensor": sensors[i],
                 "selected": i in selected,
                 "shape_share": float(by_shape[i]),
                 "material_share": float(by_material[i]),
@@ -556,7 +557,7 @@ def selection_picks(data: synth.Dataset, top: int) -> list[dict]:
         ]
         counts = {}
         for sensor in ("pvdf", "sg"):
-            mine = [i for i in selected if FEATURE_NAMES[i].startswith(sensor)]
+            mine = [i for i in selected if sensors[i] == sensor]
             led = sum(by_material[i] > by_shape[i] for i in mine)
             counts[sensor] = {"selected": len(mine), "material_led": int(led)}
         out.append(
