@@ -65,23 +65,27 @@ class LoopTrial:
     z_ref0: float
 
 
-def force_loop_gain_m_per_n_s(config: SynthConfig, force_n: float) -> float:
-    """Integral gain (m/s per N of force error) for the configured loop bandwidth.
-
-    The loop moves the servo set point; the load changes by the series stiffness of the
-    servo, the PDMS support and the skin's Hertz contact (tangent stiffness
-    ``1.5 F / delta`` at the set force), so a gain of ``2 pi f / k_series`` closes the loop
-    at ``f``.
-    """
+def series_stiffness_n_m(config: SynthConfig, force_n: float) -> float:
+    """How much the normal load changes per metre the robot's z set point moves, at the
+    load ``force_n``: the stiffness of the servo, the PDMS support and the skin's Hertz
+    contact in series (the contact's tangent stiffness ``1.5 F / delta`` at that load)."""
     f, m = config.finger, config.motion
     delta = float(
         contact.hertz_indentation_m(force_n, f.pad_radius_m, f.skin_modulus_pa, f.skin_poisson)
     )
     k_skin = 1.5 * force_n / delta
-    k_series = 1.0 / (
-        1.0 / m.servo_stiffness_n_m + 1.0 / f.pdms_normal_stiffness_n_m + 1.0 / k_skin
-    )
-    return 2 * math.pi * m.force_loop_bandwidth_hz / k_series
+    return 1.0 / (1.0 / m.servo_stiffness_n_m + 1.0 / f.pdms_normal_stiffness_n_m + 1.0 / k_skin)
+
+
+def force_loop_gain_m_per_n_s(config: SynthConfig, force_n: float) -> float:
+    """Integral gain (m/s per N of force error) for the configured loop bandwidth.
+
+    The loop moves the servo set point; the load changes by the series stiffness of the
+    servo, the PDMS support and the skin (:func:`series_stiffness_n_m`), so a gain of
+    ``2 pi f / k_series`` closes the loop at ``f``.
+    """
+    k_series = series_stiffness_n_m(config, force_n)
+    return 2 * math.pi * config.motion.force_loop_bandwidth_hz / k_series
 
 
 #: Where each trial's MuJoCo clock starts (``_initial_states``), in seconds. MuJoCo resets

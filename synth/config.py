@@ -241,16 +241,18 @@ class Variability:
     #: measured for this rig (the paper says only that its UR5 slid "with constant
     #: contact force"); derived from the arm's pose repeatability: a UR5 returns to a
     #: pose within +-0.1 mm (data sheet; ISO 9283 repeatability, the mean distance plus
-    #: 3 standard deviations), and the skin's Hertz load grows with its indentation to
-    #: the power 1.5, so at 1 N (0.82 mm deep) 0.1 mm / 3 gives 1.5 x 0.033 / 0.82 = 6 %
-    #: (5 % for a Gaussian scatter in three axes, 7 % for one along the press alone). A
-    #: force loop is not known to do better at this load: a UR5e in force mode, with its
-    #: wrist force/torque sensor, misses set points of 1-10 N by 0.38 N on average
-    #: (Trochimczuk et al. 2026, Sensors 26, 1709), and the paper's UR5 has no wrist
-    #: sensor. So 6 %, the middle of the repeatability's 5-7 %, lies at the lower end of
-    #: what the cited figures allow (``docs/simulator.md``, "The force scatter");
-    #: ``scripts/calibrate.py force`` derives it from the configured skin.
-    force_rel: float = 0.06
+    #: 3 standard deviations), so the press depth scatters by 0.1 mm / 3 = 0.033 mm, and
+    #: the load by that times the stiffness of what the press compresses in series: the
+    #: arm's servo (20 kN/m), the PDMS support (2.5 kN/m) and the skin's Hertz contact
+    #: (1.8 kN/m at 1 N, 0.82 mm deep), 1.0 kN/m in all, so 3.3 % at 1 N (2.8 % for a
+    #: Gaussian scatter in three axes, 3.8 % for one along the press alone). A force loop
+    #: is not known to do better at this load: a UR5e in force mode, with its wrist
+    #: force/torque sensor, misses set points of 1-10 N by 0.38 N on average (Trochimczuk
+    #: et al. 2026, Sensors 26, 1709), and the paper's UR5 has no wrist sensor. So 3.3 %
+    #: lies at the lower end of what the cited figures allow (``docs/simulator.md``, "The
+    #: force scatter"); ``scripts/calibrate.py force`` derives it from the configured
+    #: finger.
+    force_rel: float = 0.033
     #: Relative error of the path speed: not measured for this rig either; an assumption.
     speed_rel: float = 0.01
     #: Stroke-to-stroke scatter of the friction coefficient on one specimen (coefficient

@@ -521,33 +521,54 @@ def test_the_force_scatter_default_is_the_one_the_arms_repeatability_gives(capsy
     calibrate = _calibrate_module()
     config = synth.SynthConfig()
     got = calibrate.force_scatter(config)
-    f = config.finger
-    delta = contact.hertz_indentation_m(1.0, f.pad_radius_m, f.skin_modulus_pa, f.skin_poisson)
-    assert got["indentation_m"] == pytest.approx(float(delta))
-    assert got["value"] == pytest.approx(1.5 * (0.1e-3 / 3) / float(delta))
+    f, m = config.finger, config.motion
+    delta = float(
+        contact.hertz_indentation_m(1.0, f.pad_radius_m, f.skin_modulus_pa, f.skin_poisson)
+    )
+    assert got["indentation_m"] == pytest.approx(delta)
+    # Servo, PDMS support and the skin's Hertz tangent stiffness, in series.
+    k = 1.0 / (1.0 / m.servo_stiffness_n_m + 1.0 / f.pdms_normal_stiffness_n_m + delta / 1.5)
+    assert got["series_stiffness_n_m"] == pytest.approx(k)
+    assert got["value"] == pytest.approx(k * 0.1e-3 / 3)
+    # Every compliance in series lowers the scatter below the skin's alone.
+    assert got["value"] < 1.5 * (0.1e-3 / 3) / delta
     # The same repeatability takes a smaller sd from a Gaussian scatter in three axes, a
     # larger one from a scatter along the press direction alone: they bound the reading.
     assert 0.8 * got["value"] < got["gaussian_3d"] < got["value"] < got["gaussian_1d"]
     assert got["gaussian_1d"] < 1.2 * got["value"]
-    assert round(got["value"], 2) == config.variability.force_rel
+    assert round(got["value"], 3) == config.variability.force_rel
     assert calibrate.main(["force"]) == 0
     out = capsys.readouterr().out
-    assert f"Variability.force_rel = {config.variability.force_rel:.2f}" in out
+    assert f"Variability.force_rel = {config.variability.force_rel:.3f}" in out
 
 
-def test_the_force_scatter_follows_the_skin_it_is_derived_from():
+def test_the_force_scatter_follows_the_finger_it_is_derived_from():
     calibrate = _calibrate_module()
     config = synth.SynthConfig()
-    stiff = dataclasses.replace(
+    rigid = dataclasses.replace(
         config,
-        finger=dataclasses.replace(
-            config.finger, skin_modulus_pa=8 * config.finger.skin_modulus_pa
-        ),
+        finger=dataclasses.replace(config.finger, pdms_normal_stiffness_n_m=1e12),
+        motion=dataclasses.replace(config.motion, servo_stiffness_n_m=1e12),
     )
-    # Hertz: the indentation goes as E^(-2/3), so 8 x the modulus sinks 4 x less deep
-    # and the same depth error scatters the load 4 x more.
-    ratio = calibrate.force_scatter(stiff)["value"] / calibrate.force_scatter(config)["value"]
-    assert ratio == pytest.approx(4.0, rel=1e-9)
+    stiff = dataclasses.replace(
+        rigid,
+        finger=dataclasses.replace(rigid.finger, skin_modulus_pa=8 * config.finger.skin_modulus_pa),
+    )
+    # With the servo and the support rigid the skin alone sets it: Hertz's load goes as
+    # the indentation to the power 1.5, and the indentation as E^(-2/3), so 8 x the
+    # modulus sinks 4 x less deep and the same depth error scatters the load 4 x more.
+    f = config.finger
+    delta = float(
+        contact.hertz_indentation_m(1.0, f.pad_radius_m, f.skin_modulus_pa, f.skin_poisson)
+    )
+    skin_only = calibrate.force_scatter(rigid)["value"]
+    assert skin_only == pytest.approx(1.5 * (0.1e-3 / 3) / delta, rel=1e-6)
+    assert calibrate.force_scatter(stiff)["value"] / skin_only == pytest.approx(4.0, rel=1e-6)
+    # A softer support takes up more of the depth error.
+    soft = dataclasses.replace(
+        config, finger=dataclasses.replace(f, pdms_normal_stiffness_n_m=1000.0)
+    )
+    assert calibrate.force_scatter(soft)["value"] < calibrate.force_scatter(config)["value"]
 
 
 def test_a_stiffer_skin_draws_the_friction_scatter_from_a_higher_pressure_run():
