@@ -324,14 +324,14 @@ def force_scatter(config: synth.SynthConfig) -> dict:
     ``s`` changes the load by ``k s``, ``k`` the stiffness of everything the press
     compresses in series (the arm's servo, the PDMS support and the skin's Hertz contact,
     whose tangent stiffness is ``1.5 F / delta`` at the skin's indentation ``delta``:
-    :func:`synth.closed_loop.series_stiffness_n_m`), so it scatters by ``k s / F``
-    (relative). ``s`` is the arm's repeatability over 3 (the ISO figure read as three
-    standard deviations of the press depth: the ``value`` the default is rounded from),
-    and, to bound it, over :data:`CHI3_MEAN_PLUS_3SD` (a Gaussian scatter in three axes:
-    ``gaussian_3d``) and :data:`CHI1_MEAN_PLUS_3SD` (all of it along the press direction:
-    ``gaussian_1d``)."""
+    :func:`synth.closed_loop.series_stiffness_n_m` and ``skin_stiffness_n_m``), so it
+    scatters by ``k s / F`` (relative). ``s`` is the arm's repeatability over 3 (the ISO
+    figure read as three standard deviations of the press depth: the ``value`` the
+    default is rounded from), and, to bound it, over :data:`CHI3_MEAN_PLUS_3SD` (a
+    Gaussian scatter in three axes: ``gaussian_3d``) and :data:`CHI1_MEAN_PLUS_3SD` (all
+    of it along the press direction: ``gaussian_1d``)."""
     from synth import contact
-    from synth.closed_loop import series_stiffness_n_m
+    from synth.closed_loop import series_stiffness_n_m, skin_stiffness_n_m
     from synth.presets import NOMINAL_FORCE_N
 
     f = config.finger
@@ -347,7 +347,7 @@ def force_scatter(config: synth.SynthConfig) -> dict:
     return {
         "force_n": NOMINAL_FORCE_N,
         "indentation_m": delta,
-        "skin_stiffness_n_m": 1.5 * NOMINAL_FORCE_N / delta,
+        "skin_stiffness_n_m": skin_stiffness_n_m(config, NOMINAL_FORCE_N),
         "servo_stiffness_n_m": config.motion.servo_stiffness_n_m,
         "pdms_stiffness_n_m": f.pdms_normal_stiffness_n_m,
         "series_stiffness_n_m": k,

@@ -65,16 +65,26 @@ class LoopTrial:
     z_ref0: float
 
 
-def series_stiffness_n_m(config: SynthConfig, force_n: float) -> float:
-    """How much the normal load changes per metre the robot's z set point moves, at the
-    load ``force_n``: the stiffness of the servo, the PDMS support and the skin's Hertz
-    contact in series (the contact's tangent stiffness ``1.5 F / delta`` at that load)."""
-    f, m = config.finger, config.motion
+def skin_stiffness_n_m(config: SynthConfig, force_n: float) -> float:
+    """Tangent stiffness of the skin's Hertz contact at the load ``force_n``: the load
+    grows as the indentation ``delta`` to the power 1.5, so ``1.5 F / delta``."""
+    f = config.finger
     delta = float(
         contact.hertz_indentation_m(force_n, f.pad_radius_m, f.skin_modulus_pa, f.skin_poisson)
     )
-    k_skin = 1.5 * force_n / delta
-    return 1.0 / (1.0 / m.servo_stiffness_n_m + 1.0 / f.pdms_normal_stiffness_n_m + 1.0 / k_skin)
+    return 1.5 * force_n / delta
+
+
+def series_stiffness_n_m(config: SynthConfig, force_n: float) -> float:
+    """How much the normal load changes per metre the robot's z set point moves, at the
+    load ``force_n``: the stiffness of the servo, the PDMS support and the skin's Hertz
+    contact (:func:`skin_stiffness_n_m`) in series."""
+    k_skin = skin_stiffness_n_m(config, force_n)
+    return 1.0 / (
+        1.0 / config.motion.servo_stiffness_n_m
+        + 1.0 / config.finger.pdms_normal_stiffness_n_m
+        + 1.0 / k_skin
+    )
 
 
 def force_loop_gain_m_per_n_s(config: SynthConfig, force_n: float) -> float:

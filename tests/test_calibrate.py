@@ -547,8 +547,8 @@ def test_the_force_scatter_follows_the_finger_it_is_derived_from():
     config = synth.SynthConfig()
     rigid = dataclasses.replace(
         config,
-        finger=dataclasses.replace(config.finger, pdms_normal_stiffness_n_m=1e12),
-        motion=dataclasses.replace(config.motion, servo_stiffness_n_m=1e12),
+        finger=dataclasses.replace(config.finger, pdms_normal_stiffness_n_m=1e15),
+        motion=dataclasses.replace(config.motion, servo_stiffness_n_m=1e15),
     )
     stiff = dataclasses.replace(
         rigid,
@@ -562,8 +562,8 @@ def test_the_force_scatter_follows_the_finger_it_is_derived_from():
         contact.hertz_indentation_m(1.0, f.pad_radius_m, f.skin_modulus_pa, f.skin_poisson)
     )
     skin_only = calibrate.force_scatter(rigid)["value"]
-    assert skin_only == pytest.approx(1.5 * (0.1e-3 / 3) / delta, rel=1e-6)
-    assert calibrate.force_scatter(stiff)["value"] / skin_only == pytest.approx(4.0, rel=1e-6)
+    assert skin_only == pytest.approx(1.5 * (0.1e-3 / 3) / delta, rel=1e-9)
+    assert calibrate.force_scatter(stiff)["value"] / skin_only == pytest.approx(4.0, rel=1e-9)
     # A softer support takes up more of the depth error.
     soft = dataclasses.replace(
         config, finger=dataclasses.replace(f, pdms_normal_stiffness_n_m=1000.0)
