@@ -18,23 +18,25 @@ adapted to each test episode by a few SGD steps on its support set.
   starts at zero for every task (as in "unicorn-MAML", Ye & Chao 2022), so one
   meta-learned body serves 5-way meta-training and N-way tests alike.
 - Early stopping: about a quarter of the training classes are held out
-  (:func:`models.nets.holdout_classes`); every ``eval_every`` (50) outer steps the body
-  is adapted to ``val_episodes`` (100) 5-way 1-shot and as many 5-shot validation
-  episodes of those classes. Training stops when that validation accuracy has not risen
-  by ``min_delta`` (0.5 pp) for ``patience`` (8) evaluations, 400 outer steps, and the
-  best body is kept. The rule has to outlast the validation accuracy's noise: with 30
-  episodes its standard error is about 1.5 pp, three times ``min_delta``, so a short
-  patience lets one lucky evaluation end training while the held-out classes' curve is
-  still rising. ``max_iterations`` (3,000) bounds a fit's cost (the full run fits MAML
-  seven times: once for the closed-set and perturbation protocols, once per cross-shape
-  and cross-material fold); ``plateaued_`` says whether the plateau or the bound ended
+  (:func:`models.nets.holdout_classes`); every ``eval_every`` (100) outer steps the body
+  is adapted, by the meta-training's own ``inner_steps``, to ``val_episodes`` (100)
+  5-way 1-shot and as many 5-shot validation episodes of those classes. Training stops
+  when that validation accuracy has not risen by ``min_delta`` (0.5 pp) for ``patience``
+  (4) evaluations, 400 outer steps, and the best body is kept. The window has to
+  outlast the validation accuracy's noise, so that one lucky evaluation does not end
+  training while the held-out classes' curve is still rising. One validation by 10 steps
+  costs about as much CPU as 60 outer steps, so the window is checked every 100 steps, by
+  the adaptation the body is trained for (5 steps, not the longest test-time candidate).
+  ``max_iterations`` (3,000) bounds a fit's cost (the full run fits MAML seven times:
+  once for the closed-set and perturbation protocols, once per cross-shape and
+  cross-material fold); ``plateaued_`` says whether the plateau or the bound ended
   training. ``meta_curve_`` is the curve: an ``(n_evals, 2)`` array of (outer step,
   validation accuracy).
 - ``inner_lr`` and ``test_steps`` are chosen on the same validation episodes: the first
   ``lr_probe`` (100) outer steps are run for each of :data:`INNER_LRS` (Finn et al.'s
   0.01, and 0.1) from the same start and the best continues (``lr_probe_`` holds the
   scores); ``test_steps`` is the best of :data:`TEST_STEPS` (up to Finn et al.'s 10)
-  for the kept body.
+  for the kept body, measured once training has stopped.
 
 Written with plain tensors and ``torch.autograd.grad`` (no meta-learning library): the
 tasks of a meta-batch, and the test episodes of a chunk, are separate networks stacked
@@ -151,8 +153,8 @@ class MAML(FewShotMethod):
         inner_lr: float | None = None,
         outer_lr: float = 1e-3,
         test_steps: int | None = None,
-        eval_every: int = 50,
-        patience: int = 8,
+        eval_every: int = 100,
+        patience: int = 4,
         min_delta: float = 0.005,
         val_episodes: int = 100,
         lr_probe: int = 100,
@@ -172,10 +174,14 @@ class MAML(FewShotMethod):
 
     # -- validation -------------------------------------------------------------------
     def _validate(
-        self, x: torch.Tensor, body: list[torch.Tensor], batches: Sequence[EpisodeBatch], lr: float
+        self,
+        x: torch.Tensor,
+        body: list[torch.Tensor],
+        batches: Sequence[EpisodeBatch],
+        lr: float,
+        marks: Sequence[int],
     ) -> np.ndarray:
-        """Validation accuracy after each of the candidate test-step counts."""
-        marks = self._marks()
+        """Validation accuracy after each of the adaptation step counts ``marks``."""
         acc = np.zeros(len(marks))
         for batch in batches:
             step = episodes_per_chunk(batch.n_way * batch.k_shot, cap=CHUNK, rows=ROWS)
@@ -188,7 +194,13 @@ class MAML(FewShotMethod):
         return acc / len(batches)
 
     def _marks(self) -> tuple[int, ...]:
+        """The test-time step counts to choose from."""
         return TEST_STEPS if self.test_steps is None else (int(self.test_steps),)
+
+    def _training_marks(self) -> tuple[int, ...]:
+        """The adaptation the early stopping and the probe score the body by: the
+        meta-training's own inner steps, unless the test-time count is fixed."""
+        return (int(self.inner_steps),) if self.test_steps is None else self._marks()
 
     # -- meta-training ----------------------------------------------------------------
     def _meta_steps(
@@ -237,6 +249,7 @@ class MAML(FewShotMethod):
             meta = [p.requires_grad_(True) for p in init_cnn(LAYERS, 5, gen)]
             return meta, torch.optim.Adam(meta, lr=self.outer_lr)
 
+        watch = self._training_marks()
         # inner_lr: a short probe of every candidate from the same start, on the same tasks.
         lrs = INNER_LRS if self.inner_lr is None else (float(self.inner_lr),)
         probes = []
@@ -245,7 +258,7 @@ class MAML(FewShotMethod):
             meta, opt = start(lr)
             for block in range(probe_blocks):
                 self._meta_steps(x_train, meta, opt, tasks(block), lr)
-            score = self._validate(x_val, meta, val, lr).max() if probe_blocks else 0.0
+            score = self._validate(x_val, meta, val, lr, watch).max() if probe_blocks else 0.0
             probes.append((score, meta, opt))
         best_i = int(np.argmax([p[0] for p in probes]))  # first (smallest) on ties
         lr = lrs[best_i]
@@ -257,20 +270,20 @@ class MAML(FewShotMethod):
         meta, opt = probes[best_i][1], probes[best_i][2]
 
         it = probe_blocks * self.eval_every
-        acc = self._validate(x_val, meta, val, lr)
+        acc = self._validate(x_val, meta, val, lr, watch)
         curve = [(it, float(acc.max()))]
-        best = (float(acc.max()), it, [p.detach().clone() for p in meta], acc)
+        best = (float(acc.max()), it, [p.detach().clone() for p in meta])
         bad = 0
         block = probe_blocks
         while it < self.max_iterations and bad < self.patience:
             self._meta_steps(x_train, meta, opt, tasks(block), lr)
             block += 1
             it += self.eval_every
-            acc = self._validate(x_val, meta, val, lr)
+            acc = self._validate(x_val, meta, val, lr, watch)
             curve.append((it, float(acc.max())))
             log.info("MAML outer step %d: validation accuracy %.4f", it, acc.max())
             if acc.max() > best[0] + self.min_delta:
-                best = (float(acc.max()), it, [p.detach().clone() for p in meta], acc)
+                best = (float(acc.max()), it, [p.detach().clone() for p in meta])
                 bad = 0
             else:
                 bad += 1
@@ -280,7 +293,8 @@ class MAML(FewShotMethod):
         self.best_iteration_ = best[1]
         self.body_ = best[2]
         marks = self._marks()
-        self.test_steps_ = int(marks[int(np.argmax(best[3]))])
+        final = self._validate(x_val, self.body_, val, lr, marks) if len(marks) > 1 else [0.0]
+        self.test_steps_ = int(marks[int(np.argmax(final))])
 
     def _predict(
         self,
