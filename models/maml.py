@@ -34,9 +34,10 @@ adapted to each test episode by a few SGD steps on its support set.
   validation accuracy).
 - ``inner_lr`` and ``test_steps`` are chosen on the same validation episodes: the first
   ``lr_probe`` (100) outer steps are run for each of :data:`INNER_LRS` (Finn et al.'s
-  0.01, and 0.1) from the same start and the best continues (``lr_probe_`` holds the
-  scores); ``test_steps`` is the best of :data:`TEST_STEPS` (up to Finn et al.'s 10)
-  for the kept body, measured once training has stopped.
+  0.01, and 0.1) from the same start and the best continues, each scored by its best
+  test-time step count (``lr_probe_`` holds the scores); ``test_steps`` is the best of
+  :data:`TEST_STEPS` (up to Finn et al.'s 10) for the kept body, measured once training
+  has stopped (``test_step_scores_`` holds the scores).
 
 Written with plain tensors and ``torch.autograd.grad`` (no meta-learning library): the
 tasks of a meta-batch, and the test episodes of a chunk, are separate networks stacked
@@ -134,10 +135,11 @@ def _adapt(
 
 class MAML(FewShotMethod):
     """Learned: ``scaler_`` (per-channel z-scoring), ``body_`` (meta-learned weights),
-    ``inner_lr_`` and ``test_steps_`` (chosen on validation episodes), ``meta_curve_``
-    (``(n_evals, 2)``: outer step, validation accuracy), ``best_iteration_`` (the outer
-    step of the kept body), ``iterations_`` (outer steps run), ``plateaued_`` (False if
-    ``max_iterations`` stopped training first), ``feature_dim_`` (32)."""
+    ``inner_lr_`` and ``test_steps_`` (chosen on validation episodes; ``lr_probe_`` and
+    ``test_step_scores_`` hold the scores), ``meta_curve_`` (``(n_evals, 2)``: outer
+    step, validation accuracy), ``best_iteration_`` (the outer step of the kept body),
+    ``iterations_`` (outer steps run), ``plateaued_`` (False if ``max_iterations``
+    stopped training first), ``feature_dim_`` (32)."""
 
     name = "MAML"
     #: How the meta-gradient is computed (the benchmark writes it beside ``meta_curve_``).
@@ -198,8 +200,8 @@ class MAML(FewShotMethod):
         return TEST_STEPS if self.test_steps is None else (int(self.test_steps),)
 
     def _training_marks(self) -> tuple[int, ...]:
-        """The adaptation the early stopping and the probe score the body by: the
-        meta-training's own inner steps, unless the test-time count is fixed."""
+        """The adaptation the early stopping scores the body by: the meta-training's own
+        inner steps, unless the test-time count is fixed."""
         return (int(self.inner_steps),) if self.test_steps is None else self._marks()
 
     # -- meta-training ----------------------------------------------------------------
@@ -258,7 +260,9 @@ class MAML(FewShotMethod):
             meta, opt = start(lr)
             for block in range(probe_blocks):
                 self._meta_steps(x_train, meta, opt, tasks(block), lr)
-            score = self._validate(x_val, meta, val, lr, watch).max() if probe_blocks else 0.0
+            score = (
+                self._validate(x_val, meta, val, lr, self._marks()).max() if probe_blocks else 0.0
+            )
             probes.append((score, meta, opt))
         best_i = int(np.argmax([p[0] for p in probes]))  # first (smallest) on ties
         lr = lrs[best_i]
@@ -294,7 +298,11 @@ class MAML(FewShotMethod):
         self.body_ = best[2]
         marks = self._marks()
         final = self._validate(x_val, self.body_, val, lr, marks) if len(marks) > 1 else [0.0]
-        self.test_steps_ = int(marks[int(np.argmax(final))])
+        self.test_steps_ = int(marks[int(np.argmax(final))])  # first (fewest) on ties
+        self.test_step_scores_ = {
+            "test_steps": list(marks),
+            "accuracy": [round(float(a), 4) for a in final] if len(marks) > 1 else [],
+        }
 
     def _predict(
         self,

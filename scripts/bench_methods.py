@@ -34,6 +34,7 @@ CHOICES = (
     "inner_lr_",
     "lr_probe_",
     "test_steps_",
+    "test_step_scores_",
     "best_iteration_",
     "iterations_",
     "plateaued_",

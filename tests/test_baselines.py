@@ -108,6 +108,10 @@ def test_raw_signal_baselines_choose_their_settings_on_training_data(easy):
     curve = m.meta_curve_
     assert curve.ndim == 2 and curve.shape[1] == 2 and np.all(np.diff(curve[:, 0]) > 0)
     assert m.inner_lr_ in maml.INNER_LRS and m.test_steps_ in maml.TEST_STEPS
+    # test_steps: the best-scoring step count for the kept body, fewest on ties.
+    scores = m.test_step_scores_
+    assert scores["test_steps"] == list(maml.TEST_STEPS) and len(scores["accuracy"]) == 3
+    assert m.test_steps_ == maml.TEST_STEPS[int(np.argmax(scores["accuracy"]))]
     assert m.best_iteration_ in curve[:, 0] and m.iterations_ == curve[-1, 0]
     kept = curve[curve[:, 0] == m.best_iteration_, 1][0]
     assert kept >= curve[:, 1].max() - m.min_delta
