@@ -49,6 +49,14 @@ source gives; nothing is tuned per shape, material or class.
         the rows it measured; ``--resume`` reuses the rows of DIR's table measured with
         the same trials per class, seeds and configuration, and measures the rest.
 
+    python3 scripts/calibrate.py update
+        Not a calibration: the surface update period (Motion.surface_update_s, a numerical
+        choice) against a 1 ms update, on the same trials (every shape x material, seed 0,
+        at each speed of the presets): the films' power above 150 Hz (where a too-slow
+        update leaves its rate's tone) as a ratio to the 1 ms run's, and each channel
+        group's RMS difference from the 1 ms run relative to its signal, with the
+        difference between two seeds at the default period for scale.
+
     python3 scripts/calibrate.py picks DATA [--top 12]
         Not a calibration either: what AFOP-ML's selections on DATA's generalisation
         training splits lean on. For every cross-shape fold and cross-material split
@@ -429,6 +437,108 @@ def cmd_gain(args: argparse.Namespace) -> int:
     print(f"worst PVDF transient at 1.4 N, 14 mm/s: {per_gain:.2f} V per unit post-gain")
     print(
         f"post_gain = {best:g} (peak {best * per_gain:.1f} V of +-{config.acquisition.range_v} V)"
+    )
+    return 0
+
+
+#: Surface update periods ``update`` compares: the first is the reference.
+UPDATE_PERIODS_S = (0.001, 0.002, 0.004)
+#: The band an update-rate artefact shows in: above the texture's strongest tones.
+UPDATE_BAND_HZ = 150.0
+
+
+def _update_specs(speeds: tuple[float, ...], seed: int, shapes, materials) -> list:
+    return [
+        synth.TrialSpec(s, m, speed_mm_s=v, seed=seed)
+        for v in speeds
+        for s in shapes
+        for m in materials
+    ]
+
+
+def update_convergence(
+    config: synth.SynthConfig,
+    periods: tuple[float, ...] = UPDATE_PERIODS_S,
+    *,
+    speeds: tuple[float, ...] = (6.0, 10.0, 14.0),
+    shapes: tuple[str, ...] = SHAPE_NAMES,
+    materials: tuple[str, ...] = synth.MATERIAL_NAMES,
+) -> dict:
+    """The same trials simulated with each surface update period in ``periods``, compared
+    with the first: per period, the films' power above :data:`UPDATE_BAND_HZ` as a ratio
+    to the reference's (median and largest over the trials) and the RMS difference of the
+    films' and of the gauges' mean-removed signals from the reference's, relative to the
+    reference's RMS (median and 95th percentile); ``"seeds"`` the same differences
+    between seeds 0 and 1 at ``config``'s own period, for scale."""
+    films = [i for i, c in enumerate(synth.CHANNELS) if c.startswith("pvdf")]
+    gauges = [i for i, c in enumerate(synth.CHANNELS) if c.startswith("sg")]
+
+    def run(period: float, seed: int) -> np.ndarray:
+        cfg = _with(config, "motion", "surface_update_s", period)
+        specs = _update_specs(speeds, seed, shapes, materials)
+        sig = np.stack([t.signals for t in synth.simulate_batch(specs, config=cfg)])
+        return sig - sig.mean(axis=-1, keepdims=True)
+
+    def band_power(sig: np.ndarray) -> np.ndarray:
+        spec = np.abs(np.fft.rfft(sig[:, films], axis=-1)) ** 2
+        freq = np.fft.rfftfreq(sig.shape[-1], 1.0 / synth.SAMPLE_RATE_HZ)
+        return spec[..., freq >= UPDATE_BAND_HZ].sum(axis=(1, 2))
+
+    def rel_diff(a: np.ndarray, b: np.ndarray, group: list[int]) -> np.ndarray:
+        num = np.sqrt(((a[:, group] - b[:, group]) ** 2).mean(axis=-1))
+        return (num / np.sqrt((b[:, group] ** 2).mean(axis=-1))).ravel()
+
+    def summary(a: np.ndarray, ref: np.ndarray) -> dict:
+        out = {}
+        for name, group in (("pvdf", films), ("sg", gauges)):
+            d = rel_diff(a, ref, group)
+            out[f"{name}_diff_median"] = float(np.median(d))
+            out[f"{name}_diff_p95"] = float(np.percentile(d, 95))
+        return out
+
+    ref = run(periods[0], 0)
+    ref_power = band_power(ref)
+    rows = []
+    for period in periods[1:]:
+        sig = run(period, 0)
+        ratio = band_power(sig) / ref_power
+        rows.append(
+            {
+                "surface_update_s": period,
+                "band_power_ratio_median": float(np.median(ratio)),
+                "band_power_ratio_max": float(ratio.max()),
+                **summary(sig, ref),
+            }
+        )
+    own = config.motion.surface_update_s
+    seeds = summary(run(own, 1), run(own, 0))
+    return {"reference_s": periods[0], "rows": rows, "seeds": seeds, "trials": len(ref)}
+
+
+def cmd_update(_args: argparse.Namespace) -> int:
+    config = synth.SynthConfig()
+    res = update_convergence(config)
+    ref_ms = res["reference_s"] * 1e3
+    print(
+        f"surface update vs {ref_ms:g} ms, {res['trials']} trials (every shape x material "
+        "at 6, 10 and 14 mm/s):"
+    )
+    print(
+        f"| update | films' power > {UPDATE_BAND_HZ:g} Hz / {ref_ms:g} ms run (median, max) "
+        "| films' RMS difference (median, 95th pct) | gauges' (median, 95th pct) |"
+    )
+    print("|---|---|---|---|")
+    for r in res["rows"]:
+        print(
+            f"| {r['surface_update_s'] * 1e3:g} ms | {r['band_power_ratio_median']:.3f}, "
+            f"{r['band_power_ratio_max']:.2f} | {r['pvdf_diff_median']:.2%}, "
+            f"{r['pvdf_diff_p95']:.1%} | {r['sg_diff_median']:.2%}, {r['sg_diff_p95']:.1%} |"
+        )
+    sd = res["seeds"]
+    print(
+        f"for scale, seed 0 vs seed 1 at {config.motion.surface_update_s * 1e3:g} ms: films "
+        f"{sd['pvdf_diff_median']:.1%} (95th pct {sd['pvdf_diff_p95']:.1%}), gauges "
+        f"{sd['sg_diff_median']:.1%} ({sd['sg_diff_p95']:.1%})"
     )
     return 0
 
@@ -994,6 +1104,9 @@ def main(argv: list[str] | None = None) -> int:
     p = sub.add_parser("gain", help="the PVDF post-amplifier gain")
     _add_set_option(p, "size the gain for this configuration, as whatif sets it")
     p.set_defaults(func=cmd_gain)
+    sub.add_parser(
+        "update", help="the surface update period against a 1 ms update (not a calibration)"
+    ).set_defaults(func=cmd_update)
     p = sub.add_parser("sweep", help="the global parameters over their cited ranges")
     p.add_argument("--trials-per-class", type=int_arg, default=20)
     p.add_argument(

@@ -580,3 +580,20 @@ def test_a_stiffer_skin_draws_the_friction_scatter_from_a_higher_pressure_run():
     got = calibrate.friction_scatter(stiff)
     assert got["pressure_kpa"] > 100
     assert got["chosen"]["Sil 950"] > 62.5
+
+
+def test_update_compares_each_period_with_the_reference_on_the_same_trials():
+    calibrate = _calibrate_module()
+    small = dict(speeds=(10.0,), shapes=("circle",), materials=("wood", "aluminum"))
+    config = synth.SynthConfig()
+    same = calibrate.update_convergence(config, (0.002, 0.002), **small)
+    assert same["trials"] == 2 and same["reference_s"] == 0.002
+    (row,) = same["rows"]
+    # The same period twice: the same bits, so no difference and a power ratio of 1.
+    assert row["band_power_ratio_median"] == row["band_power_ratio_max"] == 1.0
+    assert row["pvdf_diff_p95"] == row["sg_diff_p95"] == 0.0
+    # Another seed is another stroke: its difference is far from zero.
+    assert same["seeds"]["pvdf_diff_median"] > 0.01 and same["seeds"]["sg_diff_median"] > 0.01
+    other = calibrate.update_convergence(config, (0.001, 0.004), **small)
+    (row,) = other["rows"]
+    assert row["surface_update_s"] == 0.004 and 0.0 < row["pvdf_diff_median"] < 1.0
