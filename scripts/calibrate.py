@@ -51,11 +51,11 @@ source gives; nothing is tuned per shape, material or class.
 
     python3 scripts/calibrate.py update
         Not a calibration: the surface update period (Motion.surface_update_s, a numerical
-        choice) against a 1 ms update, on the same trials (every shape x material, seed 0,
-        at each speed of the presets): the films' power above 150 Hz (where a too-slow
-        update leaves its rate's tone) as a ratio to the 1 ms run's, and each channel
-        group's RMS difference from the 1 ms run relative to its signal, with the
-        difference between two seeds at the default period for scale.
+        choice) of 2 and 4 ms against a 1 ms update, on the same trials (every shape x
+        material, seed 0, at 2, 6, 10, 14 and 24 mm/s): the films' power above 150 Hz
+        (where a too-slow update leaves its rate's tone) as a ratio to the 1 ms run's, and
+        each channel group's RMS difference from the 1 ms run relative to its signal, with
+        the difference between two seeds at the default period for scale.
 
     python3 scripts/calibrate.py picks DATA [--top 12]
         Not a calibration either: what AFOP-ML's selections on DATA's generalisation
@@ -443,40 +443,37 @@ def cmd_gain(args: argparse.Namespace) -> int:
 
 #: Surface update periods ``update`` compares: the first is the reference.
 UPDATE_PERIODS_S = (0.001, 0.002, 0.004)
+#: Speeds ``update`` compares them at: the presets' 6, 10 and 14 mm/s, a slow slide that
+#: sticks and slips, and the fastest a grid may ask for.
+UPDATE_SPEEDS_MM_S = (2.0, 6.0, 10.0, 14.0, 24.0)
 #: The band an update-rate artefact shows in: above the texture's strongest tones.
 UPDATE_BAND_HZ = 150.0
-
-
-def _update_specs(speeds: tuple[float, ...], seed: int, shapes, materials) -> list:
-    return [
-        synth.TrialSpec(s, m, speed_mm_s=v, seed=seed)
-        for v in speeds
-        for s in shapes
-        for m in materials
-    ]
 
 
 def update_convergence(
     config: synth.SynthConfig,
     periods: tuple[float, ...] = UPDATE_PERIODS_S,
     *,
-    speeds: tuple[float, ...] = (6.0, 10.0, 14.0),
+    speeds: tuple[float, ...] = UPDATE_SPEEDS_MM_S,
     shapes: tuple[str, ...] = SHAPE_NAMES,
     materials: tuple[str, ...] = synth.MATERIAL_NAMES,
 ) -> dict:
-    """The same trials simulated with each surface update period in ``periods``, compared
-    with the first: per period, the films' power above :data:`UPDATE_BAND_HZ` as a ratio
-    to the reference's (median and largest over the trials) and the RMS difference of the
+    """The same trials (every shape x material, seed 0, at each of ``speeds``) simulated
+    with each surface update period in ``periods``, compared with the first. One row per
+    later period and speed: the films' power above :data:`UPDATE_BAND_HZ` as a ratio to
+    the reference's (median and largest over the trials), and the RMS difference of the
     films' and of the gauges' mean-removed signals from the reference's, relative to the
-    reference's RMS (median and 95th percentile); ``"seeds"`` the same differences
-    between seeds 0 and 1 at ``config``'s own period, for scale."""
+    reference's RMS (median and 95th percentile). ``"seeds"``: per speed, the same
+    differences between seeds 0 and 1 at ``config``'s own period, for scale."""
     films = [i for i, c in enumerate(synth.CHANNELS) if c.startswith("pvdf")]
     gauges = [i for i, c in enumerate(synth.CHANNELS) if c.startswith("sg")]
+    specs = [(v, s, m) for v in speeds for s in shapes for m in materials]
+    at = {v: np.array([i for i, sp in enumerate(specs) if sp[0] == v]) for v in speeds}
 
     def run(period: float, seed: int) -> np.ndarray:
         cfg = _with(config, "motion", "surface_update_s", period)
-        specs = _update_specs(speeds, seed, shapes, materials)
-        sig = np.stack([t.signals for t in synth.simulate_batch(specs, config=cfg)])
+        batch = [synth.TrialSpec(s, m, speed_mm_s=v, seed=seed) for v, s, m in specs]
+        sig = np.stack([t.signals for t in synth.simulate_batch(batch, config=cfg)])
         return sig - sig.mean(axis=-1, keepdims=True)
 
     def band_power(sig: np.ndarray) -> np.ndarray:
@@ -484,14 +481,11 @@ def update_convergence(
         freq = np.fft.rfftfreq(sig.shape[-1], 1.0 / synth.SAMPLE_RATE_HZ)
         return spec[..., freq >= UPDATE_BAND_HZ].sum(axis=(1, 2))
 
-    def rel_diff(a: np.ndarray, b: np.ndarray, group: list[int]) -> np.ndarray:
-        num = np.sqrt(((a[:, group] - b[:, group]) ** 2).mean(axis=-1))
-        return (num / np.sqrt((b[:, group] ** 2).mean(axis=-1))).ravel()
-
-    def summary(a: np.ndarray, ref: np.ndarray) -> dict:
+    def differences(a: np.ndarray, b: np.ndarray) -> dict:
         out = {}
         for name, group in (("pvdf", films), ("sg", gauges)):
-            d = rel_diff(a, ref, group)
+            num = np.sqrt(((a[:, group] - b[:, group]) ** 2).mean(axis=-1))
+            d = (num / np.sqrt((b[:, group] ** 2).mean(axis=-1))).ravel()
             out[f"{name}_diff_median"] = float(np.median(d))
             out[f"{name}_diff_p95"] = float(np.percentile(d, 95))
         return out
@@ -502,44 +496,43 @@ def update_convergence(
     for period in periods[1:]:
         sig = run(period, 0)
         ratio = band_power(sig) / ref_power
-        rows.append(
-            {
-                "surface_update_s": period,
-                "band_power_ratio_median": float(np.median(ratio)),
-                "band_power_ratio_max": float(ratio.max()),
-                **summary(sig, ref),
-            }
-        )
+        for v, idx in at.items():
+            rows.append(
+                {
+                    "surface_update_s": period,
+                    "speed_mm_s": v,
+                    "band_power_ratio_median": float(np.median(ratio[idx])),
+                    "band_power_ratio_max": float(ratio[idx].max()),
+                    **differences(sig[idx], ref[idx]),
+                }
+            )
     own = config.motion.surface_update_s
-    seeds = summary(run(own, 1), run(own, 0))
-    return {"reference_s": periods[0], "rows": rows, "seeds": seeds, "trials": len(ref)}
+    other, same = run(own, 1), run(own, 0)
+    seeds = {v: differences(other[idx], same[idx]) for v, idx in at.items()}
+    return {"reference_s": periods[0], "rows": rows, "seeds": seeds, "trials": len(specs)}
 
 
 def cmd_update(_args: argparse.Namespace) -> int:
     config = synth.SynthConfig()
     res = update_convergence(config)
     ref_ms = res["reference_s"] * 1e3
+    own_ms = config.motion.surface_update_s * 1e3
+    print(f"surface update vs {ref_ms:g} ms, {res['trials']} trials (every shape x material):")
     print(
-        f"surface update vs {ref_ms:g} ms, {res['trials']} trials (every shape x material "
-        "at 6, 10 and 14 mm/s):"
+        f"| update | speed | films' power > {UPDATE_BAND_HZ:g} Hz / {ref_ms:g} ms run "
+        "(median, max) | films' RMS difference (median, 95th pct) | gauges' (median, 95th pct) "
+        f"| seed 0 vs 1 at {own_ms:g} ms: films, gauges (medians) |"
     )
-    print(
-        f"| update | films' power > {UPDATE_BAND_HZ:g} Hz / {ref_ms:g} ms run (median, max) "
-        "| films' RMS difference (median, 95th pct) | gauges' (median, 95th pct) |"
-    )
-    print("|---|---|---|---|")
+    print("|---|---|---|---|---|---|")
     for r in res["rows"]:
+        sd = res["seeds"][r["speed_mm_s"]]
         print(
-            f"| {r['surface_update_s'] * 1e3:g} ms | {r['band_power_ratio_median']:.3f}, "
-            f"{r['band_power_ratio_max']:.2f} | {r['pvdf_diff_median']:.2%}, "
-            f"{r['pvdf_diff_p95']:.1%} | {r['sg_diff_median']:.2%}, {r['sg_diff_p95']:.1%} |"
+            f"| {r['surface_update_s'] * 1e3:g} ms | {r['speed_mm_s']:g} mm/s "
+            f"| {r['band_power_ratio_median']:.3f}, {r['band_power_ratio_max']:.2f} "
+            f"| {r['pvdf_diff_median']:.2%}, {r['pvdf_diff_p95']:.1%} "
+            f"| {r['sg_diff_median']:.2%}, {r['sg_diff_p95']:.1%} "
+            f"| {sd['pvdf_diff_median']:.1%}, {sd['sg_diff_median']:.1%} |"
         )
-    sd = res["seeds"]
-    print(
-        f"for scale, seed 0 vs seed 1 at {config.motion.surface_update_s * 1e3:g} ms: films "
-        f"{sd['pvdf_diff_median']:.1%} (95th pct {sd['pvdf_diff_p95']:.1%}), gauges "
-        f"{sd['sg_diff_median']:.1%} ({sd['sg_diff_p95']:.1%})"
-    )
     return 0
 
 

@@ -589,11 +589,13 @@ def test_update_compares_each_period_with_the_reference_on_the_same_trials():
     same = calibrate.update_convergence(config, (0.002, 0.002), **small)
     assert same["trials"] == 2 and same["reference_s"] == 0.002
     (row,) = same["rows"]
+    assert row["speed_mm_s"] == 10.0
     # The same period twice: the same bits, so no difference and a power ratio of 1.
     assert row["band_power_ratio_median"] == row["band_power_ratio_max"] == 1.0
     assert row["pvdf_diff_p95"] == row["sg_diff_p95"] == 0.0
     # Another seed is another stroke: its difference is far from zero.
-    assert same["seeds"]["pvdf_diff_median"] > 0.01 and same["seeds"]["sg_diff_median"] > 0.01
+    seeds = same["seeds"][10.0]
+    assert seeds["pvdf_diff_median"] > 0.01 and seeds["sg_diff_median"] > 0.01
     other = calibrate.update_convergence(config, (0.001, 0.004), **small)
     (row,) = other["rows"]
     assert row["surface_update_s"] == 0.004 and 0.0 < row["pvdf_diff_median"] < 1.0
