@@ -18,6 +18,7 @@ import numpy as np
 from shapes import SHAPE_NAMES
 from shapes.validation import check_choice, check_int, check_positive
 
+from .config import SynthConfig
 from .materials import MATERIAL_NAMES
 from .trial import CLASS_NAMES, TrialSpec
 
@@ -241,7 +242,8 @@ def preset(name: str) -> GenerationConfig:
 
 
 def load_toml(path: str | Path) -> GenerationConfig:
-    """A grid from a TOML file: an optional ``preset = "..."`` base plus any config keys."""
+    """A grid from a TOML file: an optional ``preset = "..."`` base plus any config keys;
+    a ``[synth.SECTION]`` table sets those simulator fields and keeps the other defaults."""
     path = Path(path)
     if path.is_dir():
         raise ValueError(f"--config {path} is a directory; give a TOML file")
@@ -259,7 +261,26 @@ def load_toml(path: str | Path) -> GenerationConfig:
         )
     base = preset(data["preset"]) if "preset" in data else GenerationConfig()
     merged = {**base.to_dict(), **data}
+    if isinstance(data.get("synth"), Mapping):
+        # A [synth.*] table sets only the fields it names; the rest keep the defaults.
+        merged["synth"] = _overlay(SynthConfig().to_dict(), data["synth"])
+        try:
+            SynthConfig.from_dict(merged["synth"])
+        except ValueError as exc:
+            raise ValueError(f"--config {path}: [synth] {exc}") from None
     return GenerationConfig.from_dict(merged)
+
+
+def _overlay(base: Mapping[str, Any], over: Mapping[str, Any]) -> dict[str, Any]:
+    """``base`` with ``over``'s values in place of its own, table by table (keys ``base``
+    lacks are kept, for the configuration's own check to name)."""
+    out = dict(base)
+    for key, value in over.items():
+        if isinstance(value, Mapping) and isinstance(out.get(key), Mapping):
+            out[key] = _overlay(out[key], value)
+        else:
+            out[key] = value
+    return out
 
 
 # -- the canonical plan ------------------------------------------------------------------

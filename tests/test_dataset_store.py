@@ -15,7 +15,7 @@ import pytest
 import zarr
 
 import synth.generation as generation
-from synth import CLASS_NAMES, PRESETS, GenerationConfig, atomic, load_dataset, store
+from synth import CLASS_NAMES, PRESETS, GenerationConfig, SynthConfig, atomic, load_dataset, store
 from synth.dataset_cli import register  # noqa: F401 - the CLI module must import cleanly
 from synth.export import export
 from synth.presets import load_toml, plan, trial_seed, trial_seeds
@@ -106,6 +106,18 @@ def test_toml_grid(tmp_path):
         load_toml(path)
     with pytest.raises(ValueError, match=rf"^--config {tmp_path} is a directory"):
         load_toml(tmp_path)
+
+
+def test_a_toml_synth_table_sets_only_the_fields_it_names(tmp_path):
+    path = tmp_path / "grid.toml"
+    path.write_text('preset = "quick"\n[synth.motion]\nsurface_update_s = 0.001\n')
+    cfg = load_toml(path)
+    expected = SynthConfig().to_dict()
+    expected["motion"]["surface_update_s"] = 0.001
+    assert cfg.synth == expected and cfg.trials_per_class == 4
+    path.write_text("[synth.motion]\nno_such_field = 1.0\n")
+    with pytest.raises(ValueError, match="unknown keys \\['no_such_field'\\]"):
+        load_toml(path)
 
 
 def test_seeds_do_not_depend_on_the_rest_of_the_grid():
