@@ -103,11 +103,17 @@ def test_raw_signal_baselines_choose_their_settings_on_training_data(easy):
         assert acc.shape == (len(cnn.LRS), len(cnn.STEPS))
         i, j = cnn.LRS.index(m.lr_), cnn.STEPS.index(m.steps_)
         assert acc[i, j] == acc.max()
-    m = make_method("MAML", seed=1, max_iterations=60, eval_every=20, lr_probe=20, patience=1)
+    m = make_method("MAML", seed=1, max_iterations=80, eval_every=20, lr_probe=40, patience=1)
     m.fit(sig, lab)
     curve = m.meta_curve_
     assert curve.ndim == 2 and curve.shape[1] == 2 and np.all(np.diff(curve[:, 0]) > 0)
     assert m.inner_lr_ in maml.INNER_LRS and m.test_steps_ in maml.TEST_STEPS
+    # inner_lr: the best-scoring candidate after the whole probe (two periods), where the
+    # curve starts.
+    probe = m.lr_probe_
+    assert probe["inner_lr"] == list(maml.INNER_LRS) and len(probe["accuracy"]) == 2
+    assert m.inner_lr_ == maml.INNER_LRS[int(np.argmax(probe["accuracy"]))]
+    assert curve[0, 0] == 40
     # test_steps: the best-scoring step count for the kept body, fewest on ties.
     scores = m.test_step_scores_
     assert scores["test_steps"] == list(maml.TEST_STEPS) and len(scores["accuracy"]) == 3
