@@ -73,6 +73,16 @@ class AFOMLPML(FewShotMethod):
         self.adapt_lr = adapt_lr
         self.lam = lam
         self.alpha = tuned(self.name, "alpha") if alpha is None else alpha
+        self._check_settings(
+            meta_iterations="count",
+            meta_batch="count",
+            meta_lr="rate",
+            adapt_steps="steps",
+            adapt_lr="rate",
+            lam="weight",
+            alpha="rate",
+            ncfs_max_iter="count",
+        )
 
     def _fit(self, signals: np.ndarray, labels: np.ndarray, features: np.ndarray | None) -> None:
         raw = pool_of(signals, features)

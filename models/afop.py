@@ -62,6 +62,15 @@ class AFOPML(FewShotMethod):
             tuned(self.name, "ncfs_max_iter") if ncfs_max_iter is None else ncfs_max_iter
         )
         self.ncfs_sigma = ncfs_sigma
+        self._check_settings(
+            steps="steps",
+            lr="rate",
+            lam="weight",
+            alpha="rate",
+            dscan_episodes="count",
+            ncfs_max_iter="count",
+            ncfs_sigma="rate",
+        )
 
     def _fit(self, signals: np.ndarray, labels: np.ndarray, features: np.ndarray | None) -> None:
         raw = pool_of(signals, features)

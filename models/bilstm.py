@@ -177,6 +177,7 @@ class BiLSTMBaseline(FewShotMethod):
         super().__init__(seed=seed)
         self.steps = steps
         self.lr = lr
+        self._check_settings(steps="count", lr="rate")
 
     def _fit(self, signals: np.ndarray, labels: np.ndarray, features: np.ndarray | None) -> None:
         self._cache = PoolCache()

@@ -150,6 +150,17 @@ class CWTResNetML(FewShotMethod):
         self.lam = lam
         self.alpha = alpha
         self.val_episodes = val_episodes
+        self._check_settings(
+            max_epochs="count",
+            patience="count",
+            batch="count",
+            lr="rate",
+            steps="steps",
+            head_lr="rate",
+            lam="weight",
+            alpha="rate",
+            val_episodes="count",
+        )
 
     def _images(self, signals: np.ndarray) -> torch.Tensor:
         return self._cache.get(

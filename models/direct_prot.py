@@ -35,6 +35,7 @@ class DirectProtML(FewShotMethod):
         self.lr = lr
         self.lam = lam
         self.alpha = tuned(self.name, "alpha") if alpha is None else alpha
+        self._check_settings(steps="steps", lr="rate", lam="weight", alpha="rate")
 
     def _fit(self, signals: np.ndarray, labels: np.ndarray, features: np.ndarray | None) -> None:
         raw = pool_of(signals, features)

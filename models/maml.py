@@ -176,6 +176,19 @@ class MAML(FewShotMethod):
         self.min_delta = min_delta
         self.val_episodes = val_episodes
         self.lr_probe = lr_probe
+        self._check_settings(
+            max_iterations="count",
+            meta_batch="count",
+            inner_steps="count",
+            inner_lr="rate",
+            outer_lr="rate",
+            test_steps="count",
+            eval_every="count",
+            patience="count",
+            min_delta="weight",
+            val_episodes="count",
+            lr_probe="count",
+        )
 
     # -- validation -------------------------------------------------------------------
     def _validate(

@@ -50,6 +50,34 @@ def test_every_paper_method_is_registered():
     assert set(BASELINES) == set(FAST)
 
 
+@pytest.mark.parametrize(
+    ("name", "settings", "arg"),
+    [
+        ("AFOP-ML", {"alpha": -1.0}, "alpha"),
+        ("AFOP-ML", {"steps": -1}, "steps"),
+        ("AFOP-ML", {"dscan_episodes": 0}, "dscan_episodes"),
+        ("AFO-MLP-ML", {"meta_iterations": 0}, "meta_iterations"),
+        ("AFO-MLP-ML", {"lam": -0.1}, "lam"),
+        ("Direct-Prot-ML", {"lr": float("nan")}, "lr"),
+        ("CNN", {"steps": 0}, "steps"),
+        ("BiLSTM", {"steps": "10"}, "steps"),
+        ("CWT-ResNet-ML", {"max_epochs": 0}, "max_epochs"),
+        ("CWT-ResNet-ML", {"batch": 2.5}, "batch"),
+        ("MAML", {"lr_probe": -5}, "lr_probe"),
+        ("MAML", {"eval_every": 0}, "eval_every"),
+        ("MAML", {"inner_lr": True}, "inner_lr"),
+        ("MAML", {"seed": -1}, "seed"),
+    ],
+)
+def test_bad_settings_fail_at_construction_naming_the_setting(name, settings, arg):
+    """A method checks its settings when built, with one line naming the method and the
+    setting, not deep inside ``fit``; settings left None are chosen on training data."""
+    with pytest.raises(ValueError, match=f"^{name}: {arg} must be"):
+        make_method(name, **settings)
+    if name in ("CNN", "BiLSTM", "MAML"):
+        make_method(name, **{k: None for k in ("steps", "lr", "inner_lr") if k in settings})
+
+
 @pytest.mark.parametrize("name", BASELINES)
 def test_beats_chance_on_easy_data_and_not_on_shuffled_labels(name, easy):
     data, feats = easy
