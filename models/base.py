@@ -12,19 +12,20 @@ implicit in the layout: ``support[e, n, :]`` are the K examples of episode-class
 from __future__ import annotations
 
 import inspect
-import math
 from abc import ABC, abstractmethod
-from numbers import Integral, Real
+from collections.abc import Callable
 from typing import ClassVar, Self
 
 import numpy as np
 
-#: What :meth:`FewShotMethod._check_settings` accepts for each kind of setting.
-SETTING_KINDS = {
-    "count": "an integer >= 1",
-    "steps": "an integer >= 0",
-    "rate": "a finite number > 0",
-    "weight": "a finite number >= 0",
+from shapes.validation import check_int, check_non_negative, check_positive
+
+#: The check :meth:`FewShotMethod._check_settings` runs for each kind of setting.
+SETTING_KINDS: dict[str, Callable[[str, object], object]] = {
+    "count": lambda arg, value: check_int(arg, value, minimum=1),
+    "steps": lambda arg, value: check_int(arg, value, minimum=0),
+    "rate": check_positive,
+    "weight": check_non_negative,
 }
 
 
@@ -82,32 +83,25 @@ class FewShotMethod(ABC):
     name: ClassVar[str]
 
     def __init__(self, *, seed: int = 0) -> None:
-        if isinstance(seed, bool) or not isinstance(seed, Integral) or seed < 0:
-            name = getattr(self, "name", type(self).__name__)
-            raise ValueError(f"{name}: seed must be an integer >= 0; got {seed!r}")
-        self.seed = int(seed)
+        method = getattr(self, "name", type(self).__name__)
+        self.seed = check_int(f"{method}: seed", seed, minimum=0)
         self.fitted_ = False
 
     def _check_settings(self, **kinds: str) -> None:
         """Check the settings ``__init__`` stored, ``name=kind`` for each, at construction
         (a bad one would otherwise fail deep inside ``fit``, or silently train nothing):
-        ``kind`` is a key of :data:`SETTING_KINDS`. A setting whose default is None may stay
-        None (the method then chooses it on training data, or reads it from the tuned
-        values). Raises ValueError naming the method and the setting."""
+        ``kind`` is a key of :data:`SETTING_KINDS`: ``count`` an integer >= 1, ``steps``
+        an integer >= 0, ``rate`` a finite number > 0, ``weight`` a finite number >= 0. A
+        setting whose default is None may stay None (the method then chooses it on
+        training data, or reads it from the tuned values). Raises ValueError naming the
+        method and the setting."""
         defaults = inspect.signature(type(self).__init__).parameters
+        method = getattr(self, "name", type(self).__name__)
         for name, kind in kinds.items():
             value = getattr(self, name)
             if value is None and name in defaults and defaults[name].default is None:
                 continue
-            if kind in ("count", "steps"):
-                ok = not isinstance(value, bool) and isinstance(value, Integral)
-                ok = ok and value >= (1 if kind == "count" else 0)
-            else:
-                ok = not isinstance(value, bool) and isinstance(value, Real)
-                ok = ok and math.isfinite(value) and (value > 0 if kind == "rate" else value >= 0)
-            if not ok:
-                method = getattr(self, "name", type(self).__name__)
-                raise ValueError(f"{method}: {name} must be {SETTING_KINDS[kind]}; got {value!r}")
+            SETTING_KINDS[kind](f"{method}: {name}", value)
 
     def fit(
         self, signals: np.ndarray, labels: np.ndarray, *, features: np.ndarray | None = None

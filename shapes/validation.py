@@ -36,6 +36,15 @@ def check_positive(arg: str, value: object, *, unit: str = "") -> float:
     return float(value)
 
 
+def check_non_negative(arg: str, value: object) -> float:
+    """Return ``value`` as float if it is a finite number >= 0; else raise ``ValueError``."""
+    if isinstance(value, bool) or not isinstance(value, Real) or not math.isfinite(value):
+        raise ValueError(f"{arg} must be a finite number >= 0; got {value!r}")
+    if value < 0:
+        raise ValueError(f"{arg} must be >= 0; got {value!r}")
+    return float(value)
+
+
 def check_int(arg: str, value: object, *, minimum: int | None = None) -> int:
     """Return ``value`` if it is an integer (>= ``minimum``); else raise ``ValueError``."""
     if isinstance(value, bool) or not isinstance(value, Integral):

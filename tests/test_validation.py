@@ -2,7 +2,7 @@ import math
 
 import pytest
 
-from shapes.validation import check_choice, check_int, check_positive
+from shapes.validation import check_choice, check_int, check_non_negative, check_positive
 
 
 def test_check_choice_accepts_and_hints() -> None:
@@ -15,6 +15,16 @@ def test_check_choice_accepts_and_hints() -> None:
 def test_check_positive_rejects(bad: object) -> None:
     with pytest.raises(ValueError, match="force_n"):
         check_positive("force_n", bad, unit="N")
+
+
+@pytest.mark.parametrize("bad", [-1e-9, math.nan, math.inf, "0", True, None])
+def test_check_non_negative_rejects(bad: object) -> None:
+    with pytest.raises(ValueError, match="lam must be"):
+        check_non_negative("lam", bad)
+
+
+def test_check_non_negative_accepts_zero() -> None:
+    assert check_non_negative("lam", 0) == 0.0 and check_non_negative("lam", 2.5) == 2.5
 
 
 def test_check_int() -> None:
