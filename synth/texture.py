@@ -338,8 +338,14 @@ def loaded_surface(
     # What each ridge is under: (ridges, n) roughness and (ridges, marks, n) marks.
     pad = math.ceil(margin / GRID_M) + 2
     padded = np.pad(np.vstack([rough, marks]), ((0, 0), (pad, pad)), mode="edge")
-    under = np.stack([_shifted(padded, pad, o / GRID_M) for o in offsets])
-    ridge_rough, ridge_marks = under[:, 0], under[:, 1:]
+    # Filled in place, one ridge at a time; the marks are kept contiguous so that the
+    # layers' sums over ridges and marks read them without a copy each.
+    ridge_rough = np.empty((offsets.size, grid.size))
+    ridge_marks = np.empty((offsets.size, marks.shape[0], grid.size))
+    scratch = np.empty((max(marks.shape[0], 1), grid.size))
+    for o, r_rough, r_marks in zip(offsets, ridge_rough, ridge_marks, strict=True):
+        _shifted(padded[:1], pad, o / GRID_M, r_rough[None], scratch[:1])
+        _shifted(padded[1:], pad, o / GRID_M, r_marks, scratch[: r_marks.shape[0]])
     wavelengths = np.array([c.wavelength_m for c in texture.periodic])
     heights = np.empty((radii.size, grid.size))
     for layer, a in zip(heights, radii, strict=True):
@@ -364,17 +370,23 @@ def loaded_surface(
     return LoadedSurface(start_m - margin, loads, radii, heights, slopes)
 
 
-def _shifted(padded: np.ndarray, pad: int, cells: float) -> np.ndarray:
+def _shifted(
+    padded: np.ndarray, pad: int, cells: float, out: np.ndarray, scratch: np.ndarray
+) -> np.ndarray:
     """Rows of ``padded`` (each of ``n`` values padded with ``pad`` copies of its end
     values on both sides) read ``cells`` grid steps further on, ``|cells| < pad``: linear
     interpolation between grid points, the end values beyond the ends, like
-    ``np.interp(grid + cells * GRID_M, grid, row)``, by slicing."""
+    ``np.interp(grid + cells * GRID_M, grid, row)``, by slicing. Written into ``out``
+    (the shape of ``padded`` less ``2 * pad`` columns), which is returned; ``scratch``,
+    of the same shape, holds the second term."""
     n = padded.shape[-1] - 2 * pad
     whole = math.floor(cells)
     frac = cells - whole
     lo = padded[..., pad + whole : pad + whole + n]
     hi = padded[..., pad + whole + 1 : pad + whole + 1 + n]
-    return lo * (1.0 - frac) + hi * frac
+    np.multiply(lo, 1.0 - frac, out=out)
+    out += np.multiply(hi, frac, out=scratch)
+    return out
 
 
 def stack_surfaces(surfaces: list[FeltSurface]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
