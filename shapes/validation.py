@@ -28,20 +28,21 @@ def check_choice(arg: str, value: object, choices: Iterable[str]) -> str:
 
 def check_positive(arg: str, value: object, *, unit: str = "") -> float:
     """Return ``value`` as float if it is a finite number > 0; else raise ``ValueError``."""
-    suffix = f" {unit}" if unit else ""
-    if isinstance(value, bool) or not isinstance(value, Real) or not math.isfinite(value):
-        raise ValueError(f"{arg} must be a finite number > 0{suffix}; got {value!r}")
-    if value <= 0:
-        raise ValueError(f"{arg} must be > 0{suffix}; got {value!r}")
-    return float(value)
+    return _check_real(arg, value, zero_allowed=False, unit=unit)
 
 
 def check_non_negative(arg: str, value: object) -> float:
     """Return ``value`` as float if it is a finite number >= 0; else raise ``ValueError``."""
+    return _check_real(arg, value, zero_allowed=True, unit="")
+
+
+def _check_real(arg: str, value: object, *, zero_allowed: bool, unit: str) -> float:
+    bound = ">= 0" if zero_allowed else "> 0"
+    suffix = f" {unit}" if unit else ""
     if isinstance(value, bool) or not isinstance(value, Real) or not math.isfinite(value):
-        raise ValueError(f"{arg} must be a finite number >= 0; got {value!r}")
-    if value < 0:
-        raise ValueError(f"{arg} must be >= 0; got {value!r}")
+        raise ValueError(f"{arg} must be a finite number {bound}{suffix}; got {value!r}")
+    if value < 0 or (value == 0 and not zero_allowed):
+        raise ValueError(f"{arg} must be {bound}{suffix}; got {value!r}")
     return float(value)
 
 
