@@ -248,25 +248,42 @@ def test_run_quick_with_fake_simulator_is_resumable(tmp_path, monkeypatch):
 
 @pytest.mark.slow
 def test_tactile_synth_run_quick_real(tmp_path):
-    """The README's first-look command with the real generator and simulator, twice from
-    nothing: same seed, same data and same report numbers, bit for bit."""
+    """The README's first-look command with the real generator and simulator, and again
+    from nothing with other workers (generation in 2 processes instead of this one) and
+    AFOP-ML alone: same seed, same data and same AFOP-ML numbers, bit for bit. The other
+    methods' own determinism is tested with each method."""
     from benchmark.cli import main
 
     assert main(["run", "--out", str(tmp_path / "a"), "--quick"]) == 0
-    assert main(["run", "--out", str(tmp_path / "b"), "--quick"]) == 0
+    argv_b = ["run", "--out", str(tmp_path / "b"), "--quick", "--methods", "AFOP-ML"]
+    assert main([*argv_b, "--workers", "2"]) == 0
+    for name in ("nominal", "perturbation"):
+        da, db = (synth.load_dataset(tmp_path / d / "data" / name) for d in "ab")
+        assert da.signals.tobytes() == db.signals.tobytes(), name
     # The two output directories' own paths are the only text allowed to differ.
-    ra, rb = (
-        (tmp_path / d / "report.md").read_text().replace(str(tmp_path / d), "OUT") for d in "ab"
-    )
-    assert strip_timing(ra) == strip_timing(rb)
     ja, jb = (
         json.loads((tmp_path / d / "results.json").read_text().replace(str(tmp_path / d), "OUT"))
         for d in "ab"
     )
-    assert comparable(ja) == comparable(jb)
-    for name in ("nominal", "perturbation"):
-        da, db = (synth.load_dataset(tmp_path / d / "data" / name) for d in "ab")
-        assert da.signals.tobytes() == db.signals.tobytes(), name
+    others = {r.get("method") for r in ja} - {None, "AFOP-ML"}
+    assert others == {"AFO-MLP-ML", "Direct-Prot-ML"}
+    assert comparable([r for r in ja if r.get("method") not in others]) == comparable(jb)
+    ra, rb = (
+        strip_timing((tmp_path / d / "report.md").read_text().replace(str(tmp_path / d), "OUT"))
+        for d in "ab"
+    )
+    # b's report is a's without the other methods: only the lines listing every method
+    # (run settings, figure captions) differ; the numbers are the records above.
+    a_lines = set(ra.splitlines())
+    extra = [line for line in rb.splitlines() if line not in a_lines]
+    listing = [
+        "- methods",
+        "- episode budgets",
+        "- **generalisation.png**",
+        "- **perturbation_heatmap.png**",
+    ]
+    assert [line.split(" — ")[0].split(":")[0] for line in extra] == listing, extra
+    assert len(rb.splitlines()) < len(ra.splitlines())
     tmp_path = tmp_path / "a"
     records = json.loads((tmp_path / "results.json").read_text())
     assert {r["protocol"] for r in select(records, "accuracy")} == {
