@@ -518,6 +518,8 @@ def render(records: Sequence[dict], meta: Mapping[str, Any]) -> str:
         lines.append(f"- episode budgets: {meta['episodes']}")
     if meta.get("threads"):
         lines.append(f"- thread settings: {meta['threads']}")
+    if meta.get("kernels"):
+        lines.append(f"- CPU kernels: {meta['kernels']}")
     for note in meta.get("notes", ()):
         lines.append(f"- {note}")
     lines.append("")

@@ -171,6 +171,29 @@ def threads_line(processes: int) -> str:
     return describe_threads()
 
 
+def kernels_line(processes: int) -> str | None:
+    """The report's CPU-kernel line: the instruction set torch dispatches its float kernels
+    to on this machine, and the BLAS builds numpy and scipy load, with the kernels they
+    picked. These depend on the CPU, and so can the torch methods' last digits, so two
+    reports whose lines differ need not agree bit for bit. None when no fit ran in this
+    invocation (the records came from checkpoints, maybe computed elsewhere)."""
+    if processes == 0:
+        return None
+    import scipy.linalg  # noqa: F401  (loads scipy's BLAS, so the line names it every time)
+    import threadpoolctl
+    import torch
+
+    blas = sorted(
+        {
+            f"{i['internal_api']} {i['version']} ({i.get('architecture') or 'unknown'})"
+            for i in threadpoolctl.threadpool_info()
+            if i["user_api"] == "blas"
+        }
+    )
+    cpu = torch.backends.cpu.get_cpu_capability()
+    return f"torch {torch.__version__} {cpu}; BLAS {', '.join(blas) or 'none loaded'}"
+
+
 def default_workers() -> int:
     """Processes a benchmark's fits run in by default: one per CPU this process may use."""
     return settings().cpus
@@ -235,6 +258,7 @@ def benchmark_all(
         "methods": list(methods),
         "episodes": budget.describe(methods, PROTOCOL_NAMES),
         "threads": threads_line(processes),
+        "kernels": kernels_line(processes),
         "cross_shape_folds": [list(f) for f in CROSS_SHAPE_FOLDS],
         "figures": draw_figures(records, data, artefacts, out),
         "figure_notes": figure_notes(records, artefacts, seed),

@@ -46,7 +46,7 @@ def benchmark_protocol(
     from synth import load_dataset
 
     from .report import dataset_summary, write_report
-    from .run import benchmark_all, default_workers, run_protocols, threads_line
+    from .run import benchmark_all, default_workers, kernels_line, run_protocols, threads_line
 
     chosen = None if protocol == "all" else get(protocol, arg="PROTOCOL")
     methods = check_methods(list(methods) if methods else list(METHOD_NAMES))
@@ -115,6 +115,7 @@ def benchmark_protocol(
             "methods": list(methods),
             "episodes": f"{episodes} per cell",
             "threads": threads_line(processes),
+            "kernels": kernels_line(processes),
             "figures": made,
             "notes": [f"protocol {chosen.name} only"],
         }

@@ -110,7 +110,8 @@ def test_fits_in_worker_processes_and_a_resumed_run_report_one_closed_set_fit(
     kw = dict(methods=["AFOP-ML"], budget=Budget(default=10), seed=SEED, progress=False)
     first = benchmark_all(data, pert, tmp_path, workers=2, **kw)
     d = _closed_set_d(first)
-    report = _reproducible((tmp_path / "report.md").read_text())
+    first_report = (tmp_path / "report.md").read_text()
+    report = _reproducible(first_report)
 
     def boom(*a, **k):
         raise AssertionError("protocol re-run although its checkpoint is valid")
@@ -124,13 +125,17 @@ def test_fits_in_worker_processes_and_a_resumed_run_report_one_closed_set_fit(
     assert _reproducible(resumed) == report
     # No fit ran, and the report does not pass this process's settings off as the fits'.
     assert f"- thread settings: {run_mod.NO_FITS_LINE}" in resumed.splitlines()
+    assert not [line for line in resumed.splitlines() if line.startswith("- CPU kernels:")]
+    assert any(line.startswith("- CPU kernels: torch ") for line in first_report.splitlines())
 
 
 def _reproducible(report: str) -> str:
-    """The report without its timing section and its thread-settings line (which says
-    that no fit ran when every protocol comes from its checkpoint)."""
+    """The report without its timing section, its thread-settings line (which says that
+    no fit ran when every protocol comes from its checkpoint) and its CPU-kernel line
+    (left out then)."""
     lines = strip_timing(report).splitlines()
-    return "\n".join(line for line in lines if not line.startswith("- thread settings:"))
+    machine = ("- thread settings:", "- CPU kernels:")
+    return "\n".join(line for line in lines if not line.startswith(machine))
 
 
 def test_analyse_needs_the_selected_features_of_the_closed_set_fit(datasets):
