@@ -9,7 +9,9 @@ alternate so that a drift of the machine's speed does not pass for overhead. The
 the CPU per trial of ``simulate_batch``'s stages run one after the other on the same
 batches: planning (each trial's felt surface, model and path), the closed loop (MuJoCo's
 steps and the surface's and force loop's updates between periods) and the sensor chain,
-so an overhead can be traced to its stage. The default
+so an overhead can be traced to its stage, with the closed loop's wall time split into
+the time inside MuJoCo's rollout calls (the closed loop's physics, to set against the
+raw rollout's) and the updates between them. The default
 of 10 trials per class gives rollout batches of 30 trials per shape, about the size of a
 generation chunk (36 trials of the paper preset); smaller batches pay the closed loop's
 fixed cost per update period over fewer trials.
@@ -93,21 +95,29 @@ def main() -> None:
         f"{(statistics.median(cpu_ratios) - 1) * 100:+.1f}% CPU"
     )
 
-    stages = _stages(specs, config, args.threads)
+    stages, loop_wall, in_rollout = _stages(specs, config, args.threads)
     print(
         "stages, one after the other (CPU ms per trial): "
         + ", ".join(f"{name} {cpu / n * 1e3:.1f}" for name, cpu in stages.items())
+        + f"; the closed loop's wall time {loop_wall / n * 1e3:.1f} ms per trial, "
+        f"{in_rollout / n * 1e3:.1f} ms of it inside MuJoCo's rollout calls and "
+        f"{(loop_wall - in_rollout) / n * 1e3:.1f} ms between them"
     )
 
 
-def _stages(specs: list[TrialSpec], config: synth.SynthConfig, threads: int) -> dict[str, float]:
+def _stages(
+    specs: list[TrialSpec], config: synth.SynthConfig, threads: int
+) -> tuple[dict[str, float], float, float]:
     """CPU seconds of planning, closed loop and sensor chain over ``specs``, in the batches
-    ``simulate_batch`` makes (:func:`synth.simulator.rollout_chunks`)."""
+    ``simulate_batch`` makes (:func:`synth.simulator.rollout_chunks`); and the closed
+    loops' wall seconds and the part of them inside MuJoCo's rollout calls (the rest is
+    the controller's and the surface's work between update periods)."""
     import mujoco
 
     from synth import scene
 
     cpu = {"plan": 0.0, "closed loop": 0.0, "sensor chain": 0.0}
+    loop_wall = in_rollout = 0.0
     datas: dict[str, list[mujoco.MjData]] = {}
     for chunk in simulator.rollout_chunks(specs):
         shape = specs[chunk[0]].shape
@@ -116,15 +126,17 @@ def _stages(specs: list[TrialSpec], config: synth.SynthConfig, threads: int) -> 
             datas[shape] = [mujoco.MjData(base) for _ in range(threads)]
         t0 = time.process_time()
         plans = [simulator.plan(specs[i], config) for i in chunk]
-        t1 = time.process_time()
-        sens, heights = simulator._roll(plans, datas[shape][: len(plans)], config)
+        t1, w1 = time.process_time(), time.perf_counter()
+        sens, heights, loop = simulator._roll_loop(plans, datas[shape][: len(plans)], config)
         t2 = time.process_time()
+        loop_wall += time.perf_counter() - w1
+        in_rollout += loop.rollout_s_
         simulator._process(plans, sens, heights, config)
         t3 = time.process_time()
         cpu["plan"] += t1 - t0
         cpu["closed loop"] += t2 - t1
         cpu["sensor chain"] += t3 - t2
-    return cpu
+    return cpu, loop_wall, in_rollout
 
 
 if __name__ == "__main__":

@@ -27,6 +27,7 @@ result does not depend on the batch it runs in.
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -174,7 +175,9 @@ class ClosedLoop:
         in which MuJoCo resets a trial or counts a warning (the outputs' later steps are
         then undefined); ``unstable_`` holds the indices of the trials it reset and
         ``warned_`` the names of the warnings MuJoCo counted (of the last trial on each
-        data)."""
+        data). ``rollout_s_`` holds the wall seconds spent inside MuJoCo's rollout calls
+        (the rest of the run's time is the controller's and the surface's work between
+        periods), for profiling."""
         cfg = self.config
         mot = cfg.motion
         dt, k = mot.timestep_s, mot.surface_steps
@@ -227,6 +230,7 @@ class ClosedLoop:
             self.pieces.update(np.stack([self.x_ref[:, 0], self.y_ref[:, 0]], axis=1))
         self.unstable_ = np.zeros(0, dtype=np.intp)
         self.warned_: tuple[str, ...] = ()
+        self.rollout_s_ = 0.0
         runner = _rollout.Rollout(nthread=nthread if nthread > 1 else 0)
         spec = int(scene_mod.CONTROL_SPEC)
         for g in range(nseg):
@@ -251,7 +255,9 @@ class ClosedLoop:
             control[:, :, mx + 3 : mx + 5] = force[:, :, ::-1] * lever
             control[:, :, mz] = h
             sens = sens_out[g]
+            t0 = time.perf_counter()
             runner.rollout(self.models, datas, k, spec, state, warm, control, state_buf, sens, None)
+            self.rollout_s_ += time.perf_counter() - t0
             height_out[g] = h
             if qpos_out is not None:
                 qpos_out[:, g] = state_buf[:, :, 1 : 1 + self.nq]

@@ -338,6 +338,14 @@ def _roll(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Run a chunk of same-shape plans' closed loops; returns sensordata
     ``(b, steps, nsensordata)`` and the specimen's texture heights ``(b, steps)``."""
+    sens, heights, _ = _roll_loop(plans, datas, config)
+    return sens, heights
+
+
+def _roll_loop(
+    plans: Sequence[Plan], datas: list[mujoco.MjData], config: SynthConfig
+) -> tuple[np.ndarray, np.ndarray, ClosedLoop]:
+    """:func:`_roll`, also returning the loop that ran (its ``rollout_s_`` for profiling)."""
     for d in datas:
         mujoco.mj_resetData(plans[0].model, d)
     loop = ClosedLoop(
@@ -346,7 +354,7 @@ def _roll(
     steps = max(p.steps for p in plans)
     sens, heights = loop.run(datas, _initial_states(plans), steps, len(datas))
     _check_stable(loop, plans, datas, config)
-    return sens, heights
+    return sens, heights, loop
 
 
 def _check_stable(

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import time
 
 import mujoco
 import numpy as np
@@ -840,6 +841,21 @@ def test_the_felt_surface_follows_the_simulated_load():
     got = heights[0, ::k][:periods]
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
     assert np.ptp(got) > 0.3e-6  # the load (and so the felt layer) changed at the edges
+
+
+def test_the_loop_times_its_rollout_calls_without_changing_the_run():
+    """``_roll_loop`` gives ``_roll``'s outputs bit for bit and the loop's time inside
+    MuJoCo's rollout calls: positive, and a part of the whole run's wall time."""
+    config = SynthConfig()
+    plan = sim.plan(TrialSpec("circle", "resin", seed=2), config)
+    data = [mujoco.MjData(plan.model)]
+    sens, heights = sim._roll([plan], data, config)
+    t0 = time.perf_counter()
+    sens2, heights2, loop = sim._roll_loop([plan], data, config)
+    wall = time.perf_counter() - t0
+    np.testing.assert_array_equal(sens2, sens)
+    np.testing.assert_array_equal(heights2, heights)
+    assert 0.0 < loop.rollout_s_ < wall
 
 
 def test_a_fixed_number_of_ridges_is_accepted_or_refused_by_name():
