@@ -11,7 +11,7 @@ batches: planning (each trial's felt surface, model and path), the closed loop (
 steps and the surface's and force loop's updates between periods) and the sensor chain,
 so an overhead can be traced to its stage, with the closed loop's wall time split into
 the time inside MuJoCo's rollout calls (the closed loop's physics, to set against the
-raw rollout's) and the updates between them. The default
+raw rollout's) and the rest: the updates between them and the loop's set-up. The default
 of 10 trials per class gives rollout batches of 30 trials per shape, about the size of a
 generation chunk (36 trials of the paper preset); smaller batches pay the closed loop's
 fixed cost per update period over fewer trials.
@@ -101,7 +101,8 @@ def main() -> None:
         + ", ".join(f"{name} {cpu / n * 1e3:.1f}" for name, cpu in stages.items())
         + f"; the closed loop's wall time {loop_wall / n * 1e3:.1f} ms per trial, "
         f"{in_rollout / n * 1e3:.1f} ms of it inside MuJoCo's rollout calls and "
-        f"{(loop_wall - in_rollout) / n * 1e3:.1f} ms between them"
+        f"{(loop_wall - in_rollout) / n * 1e3:.1f} ms outside them (the updates between "
+        "them and the loop's set-up)"
     )
 
 
@@ -111,7 +112,8 @@ def _stages(
     """CPU seconds of planning, closed loop and sensor chain over ``specs``, in the batches
     ``simulate_batch`` makes (:func:`synth.simulator.rollout_chunks`); and the closed
     loops' wall seconds and the part of them inside MuJoCo's rollout calls (the rest is
-    the controller's and the surface's work between update periods)."""
+    the controller's and the surface's work between update periods and each loop's
+    set-up, from the reset of its data to its outputs' check)."""
     import mujoco
 
     from synth import scene

@@ -176,8 +176,8 @@ class ClosedLoop:
         then undefined); ``unstable_`` holds the indices of the trials it reset and
         ``warned_`` the names of the warnings MuJoCo counted (of the last trial on each
         data). ``rollout_s_`` holds the wall seconds spent inside MuJoCo's rollout calls
-        (the rest of the run's time is the controller's and the surface's work between
-        periods), for profiling."""
+        (the rest of the run's time is its set-up and the controller's and the surface's
+        work between periods), for profiling."""
         cfg = self.config
         mot = cfg.motion
         dt, k = mot.timestep_s, mot.surface_steps
