@@ -4,17 +4,19 @@
 
 Reports physics steps/s of the bare rollout, end-to-end trials/s, CPU seconds per 2 s
 trial, and the end-to-end overhead over the raw rollout (targets: <= 25 %, <= 60 ms CPU
-per trial), per round and as the median over the rounds; raw and end-to-end runs
-alternate so that a drift of the machine's speed does not pass for overhead. Then, once,
-the CPU per trial of ``simulate_batch``'s stages run one after the other on the same
-batches: planning (each trial's felt surface, model and path), the closed loop (MuJoCo's
-steps and the surface's and force loop's updates between periods) and the sensor chain,
-so an overhead can be traced to its stage, with the closed loop's wall time split into
-the time inside MuJoCo's rollout calls (the closed loop's physics, to set against the
-raw rollout's) and the rest: the updates between them and the loop's set-up. The default
-of 10 trials per class gives rollout batches of 30 trials per shape, about the size of a
-generation chunk (36 trials of the paper preset); smaller batches pay the closed loop's
-fixed cost per update period over fewer trials.
+per trial), per round and as the median over the rounds. The raw rollout's wall and
+CPU time are those of its rollout calls alone, without the trials' planning. Raw and
+end-to-end runs alternate so that a drift of the machine's speed does not pass for
+overhead. Then, once, the CPU per trial of ``simulate_batch``'s stages run one after
+the other on the same batches: planning (each trial's felt surface, model and path),
+the closed loop (MuJoCo's steps and the surface's and force loop's updates between
+periods) and the sensor chain, so an overhead can be traced to its stage, with the
+closed loop's wall time split into the time inside MuJoCo's rollout calls (the closed
+loop's physics, to set against the raw rollout's) and the rest: the updates between
+them and the loop's set-up. The default of 10 trials per class gives rollout batches of
+30 trials per shape, about the size of a generation chunk (36 trials of the paper
+preset); smaller batches pay the closed loop's fixed cost per update period over fewer
+trials.
 """
 
 from __future__ import annotations
@@ -55,10 +57,10 @@ def main() -> None:
     # and each end-to-end run is compared with the mean of the raw runs just before and
     # just after it: a shared machine's speed drifts over minutes, and a ratio of two
     # runs far apart in time measures the drift as much as the overhead.
+    # Both figures of a raw run are those of its rollout calls: its planning and set-up
+    # are not physics, while the end-to-end run's CPU includes its own planning.
     def raw() -> tuple[float, float]:
-        cpu0 = time.process_time()
-        wall = simulator.raw_rollout(specs, config=config, threads=args.threads)
-        return wall, time.process_time() - cpu0
+        return simulator.raw_rollout_times(specs, config=config, threads=args.threads)
 
     def end_to_end() -> tuple[float, float]:
         wall0, cpu0 = time.perf_counter(), time.process_time()

@@ -564,14 +564,25 @@ def raw_rollout(
     longest plan among all of its shape's and speed's trials, where :func:`simulate_batch`
     stops each batch at its own longest plan; the plans' lengths differ by their
     placement's scatter, and a batch of tens of trials holds one near the longest, so the
-    two step counts differ by little. Returns the rollout wall seconds.
+    two step counts differ by little. Returns the rollout wall seconds
+    (:func:`raw_rollout_times` also gives their CPU seconds).
     """
+    return raw_rollout_times(specs, config=config, threads=threads)[0]
+
+
+def raw_rollout_times(
+    specs: Sequence[TrialSpec], *, config: SynthConfig | None = None, threads: int | None = None
+) -> tuple[float, float]:
+    """:func:`raw_rollout`'s wall seconds and the process's CPU seconds inside its
+    rollout calls (every rollout thread's): the planning and set-up around the calls are
+    in neither, so a comparison with an end-to-end run's CPU charges that run with its
+    planning. Other threads of this process computing meanwhile would count too."""
     config = _check_config(config)
     threads = threads or rollout_threads()
     by_shape: dict[tuple[str, float], list[Plan]] = {}
     for s in specs:
         by_shape.setdefault((s.shape, s.speed_mm_s), []).append(plan(s, config))
-    wall = 0.0
+    wall = cpu = 0.0
     for group in by_shape.values():
         steps = max(p.steps for p in group)
         datas = [mujoco.MjData(group[0].model) for _ in range(threads)]
@@ -584,7 +595,7 @@ def raw_rollout(
                 control[i, :, 1] = p.loop.y_ref[:steps]
                 control[i, :, 2] = p.loop.z_ref0
             state0 = _initial_states(chunk)
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             rollout.rollout(
                 [p.model for p in chunk],
                 datas,
@@ -594,7 +605,8 @@ def raw_rollout(
                 nstep=steps,
             )
             wall += time.perf_counter() - t0
-    return wall
+            cpu += time.process_time() - c0
+    return wall, cpu
 
 
 def replay(spec: TrialSpec, config: SynthConfig | None = None):

@@ -858,6 +858,17 @@ def test_the_loop_times_its_rollout_calls_without_changing_the_run():
     assert 0.0 < loop.rollout_s_ < wall
 
 
+def test_the_raw_rollout_times_only_its_rollout_calls():
+    """``raw_rollout_times``: wall and CPU seconds of the rollout calls alone, so the
+    planning of the trials (CPU spent in the same call) is left out of both."""
+    specs = [TrialSpec("circle", "wood", seed=i) for i in range(2)]
+    cpu0, wall0 = time.process_time(), time.perf_counter()
+    wall, cpu = sim.raw_rollout_times(specs, threads=1)
+    total_cpu, total_wall = time.process_time() - cpu0, time.perf_counter() - wall0
+    assert 0.0 < wall < total_wall
+    assert 0.0 < cpu < total_cpu
+
+
 def test_a_fixed_number_of_ridges_is_accepted_or_refused_by_name():
     base = SynthConfig().finger
     assert dataclasses.replace(base, ridges_in_contact=7).ridges_in_contact == 7
