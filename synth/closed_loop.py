@@ -35,7 +35,7 @@ import mujoco
 import numpy as np
 from mujoco import _rollout
 
-from . import contact
+from . import contact, kernels
 from . import pieces as pieces_mod
 from . import scene as scene_mod
 from . import texture as texture_mod
@@ -200,26 +200,35 @@ class ClosedLoop:
         # The x/y servo set points of every period, laid out as the control's columns.
         xy_seg = np.stack([self.x_ref[:, :steps], self.y_ref[:, :steps]], axis=-1)
         xy_seg = xy_seg.reshape(b, nseg, k, 2)
-        state = np.ascontiguousarray(initial_state)
+        state = np.array(initial_state, dtype=float, order="C")  # updated in place
         warm = np.zeros((b, self.nv))
-        qvel = slice(1 + self.nq, 1 + self.nq + self.nv)
+        slope = np.empty((b, k))
+        reset = np.zeros(b, dtype=bool)
         # The skin's sliding coefficient in each model, as flat views (one store per model).
         frictions = [m.geom_friction.reshape(-1) for m in self.models]
         mu_at = self.skin * base.geom_friction.shape[1]
         warnings = [d.warning.number for d in datas]  # live views of the warning counters
-        c_found = cols["contact"].start
-        c_fz = c_found + 3
-        c_skin, c_slip = cols["skin_pos"].start, cols["slip_vel"].start  # their x columns
-        c_wrist = cols["drive_force"].start
+        # The sensors the next period responds to (kernels.next_state): contact found, its
+        # force's z, the skin's x and its slip velocity's x (y follows each), the wrist's.
+        found = cols["contact"].start
+        state_cols = np.array(
+            [
+                found,
+                found + 3,
+                cols["skin_pos"].start,
+                cols["slip_vel"].start,
+                cols["drive_force"].start,
+            ]
+        )
         c_pad = slice(cols["pad_pos"].start, cols["pad_pos"].start + 2)
         mx, mz = lay["pad_wrench"].start, lay["mocap_pos"].start + 2
         direction = self.dir
-        dir_x, dir_y = direction[:, 0], direction[:, 1]
         ahead = np.arange(1, k + 1) * dt
         # The pad wrench's torque r x F at the contact (r = -R z): (R F_y, -R F_x).
         lever = np.array([radius, -radius])
 
-        # Before the first period: the pad rests at the start, loaded by the set force.
+        # Before the first period: the pad rests at the start, loaded by the set force. These
+        # inputs are updated in place after every period (kernels.next_state).
         s_now = self.x_ref[:, 0] * direction[:, 0] + self.y_ref[:, 0] * direction[:, 1]
         v_now = np.zeros(b)
         slip_speed = np.zeros(b)
@@ -245,44 +254,46 @@ class ClosedLoop:
             ):
                 arr[mu_at] = value
             # Texture under the contact, extrapolated over the period, as felt by the
-            # ridges inside the contact the simulated load makes.
-            h, slope = self.texture(s_now[:, None] + v_now[:, None] * ahead, normal)
-            push = slope * -normal[:, None]
-            force = push[:, :, None] * direction[:, None, :]  # (b, k, 2): F_x, F_y
-            control[:, :, 0:2] = xy_seg[:, g]
-            control[:, :, 2] = self.z_ref[:, None]
-            control[:, :, mx : mx + 2] = force
-            control[:, :, mx + 3 : mx + 5] = force[:, :, ::-1] * lever
-            control[:, :, mz] = h
+            # ridges inside the contact the simulated load makes; the specimen's heights
+            # go straight to the output.
+            h = height_out[g]
+            self.texture.felt_into(s_now, v_now, ahead, normal, h, slope)
+            kernels.controls(
+                h, slope, normal, xy_seg[:, g], self.z_ref, direction, lever, mx, mz, control
+            )
             sens = sens_out[g]
             t0 = time.perf_counter()
             runner.rollout(self.models, datas, k, spec, state, warm, control, state_buf, sens, None)
             self.rollout_s_ += time.perf_counter() - t0
-            height_out[g] = h
             if qpos_out is not None:
                 qpos_out[:, g] = state_buf[:, :, 1 : 1 + self.nq]
             # A trial went unstable: the caller reports it; the rest is not needed. The
             # rollout clears a data's warning counters before each trial it runs there, so
             # they tell of the last trial on each data only; a reset trial is found by its
-            # clock (CLOCK_START_S), the other warnings by the counters.
-            reset = state_buf[:, k - 1, 0] < state[:, 0] + (k - 0.5) * dt
-            if reset.any() or any(w.any() for w in warnings):
+            # clock (CLOCK_START_S), the other warnings by the counters. Otherwise the state
+            # and the inputs the next period responds to are read from this one's end.
+            was_reset = kernels.next_state(
+                state_buf,
+                dt,
+                1 + self.nq,
+                sens,
+                direction,
+                state_cols,
+                state,
+                warm,
+                normal,
+                s_now,
+                v_now,
+                slip_speed,
+                wrist_sum,
+                reset,
+            )
+            if was_reset or any(w.any() for w in warnings):
                 self.unstable_ = np.flatnonzero(reset)
                 self.warned_ = _warning_names(datas)
                 return _trial_major(sens_out), _trial_major(height_out)
-            state = state_buf[:, k - 1].copy()
-            warm = (state_buf[:, k - 1, qvel] - state_buf[:, k - 2, qvel]) / dt
-            # The state the next period's inputs respond to.
-            last = sens[:, k - 1]
-            found = last[:, c_found] > 0
-            normal = np.where(found, -last[:, c_fz], 0.0)
-            s_now = last[:, c_skin] * dir_x + last[:, c_skin + 1] * dir_y
-            slip_x, slip_y = last[:, c_slip], last[:, c_slip + 1]
-            v_now = slip_x * dir_x + slip_y * dir_y
-            slip_speed = np.hypot(slip_x, slip_y)
-            wrist_sum -= sens[:, :, c_wrist].sum(axis=1)
             if self.pieces is not None:
-                self.pieces.update(last[:, c_pad])
+                self.pieces.update(sens[:, k - 1, c_pad])
         if qpos_out is not None:
             self.qpos_ = qpos_out.reshape(b, steps, self.nq)
         return _trial_major(sens_out), _trial_major(height_out)

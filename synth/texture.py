@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal
 
-from . import contact
+from . import contact, kernels
 from .config import Finger
 from .materials import Texture
 
@@ -454,6 +454,32 @@ class TextureTable:
         c = self._cells[i0]
         return c[..., 0] + c[..., 1] * w, c[..., 2] + c[..., 3] * w
 
+    def felt_into(
+        self,
+        s_m: np.ndarray,
+        v_m_s: np.ndarray,
+        ahead_s: np.ndarray,
+        load_n: np.ndarray,
+        height_out: np.ndarray,
+        slope_out: np.ndarray,
+    ) -> None:
+        """The table called at the coordinates ``s_m[i] + v_m_s[i] * ahead_s[t]``
+        (positions ``(b,)`` extrapolated over the times ``(k,)`` by their velocities),
+        written into ``height_out`` and ``slope_out`` ``(b, k)``: the same bits, compiled
+        (:mod:`synth.kernels`)."""
+        kernels.table_felt(
+            self._cells,
+            self._origins[:, 0],
+            self._row_start[:, 0],
+            self._last,
+            1.0 / GRID_M,
+            s_m,
+            v_m_s,
+            ahead_s,
+            height_out,
+            slope_out,
+        )
+
 
 class LayeredTable:
     """A batch's :class:`LoadedSurface` s (every trial with as many layers), ready for
@@ -500,6 +526,36 @@ class LayeredTable:
         above = q[..., 2, :] + (q[..., 3, :] - q[..., 2, :]) * w
         felt = below + (above - below) * u[:, None, None]
         return felt[..., 0], felt[..., 1]
+
+    def felt_into(
+        self,
+        s_m: np.ndarray,
+        v_m_s: np.ndarray,
+        ahead_s: np.ndarray,
+        load_n: np.ndarray,
+        height_out: np.ndarray,
+        slope_out: np.ndarray,
+    ) -> None:
+        """The table called at the coordinates ``s_m[i] + v_m_s[i] * ahead_s[t]``
+        (positions ``(b,)`` extrapolated over the times ``(k,)`` by their velocities) under
+        the loads ``load_n`` ``(b,)``, written into ``height_out`` and ``slope_out`` ``(b,
+        k)``: the same bits, compiled (:mod:`synth.kernels`)."""
+        j, u = layer_position(self._first_load, self.layers, load_n)
+        kernels.layered_felt(
+            self._points,
+            self._origins[:, 0],
+            self._row_start[:, 0],
+            self._layer,
+            self._last,
+            1.0 / GRID_M,
+            j,
+            u,
+            s_m,
+            v_m_s,
+            ahead_s,
+            height_out,
+            slope_out,
+        )
 
 
 def texture_table(surfaces: list[LoadedSurface]) -> TextureTable | LayeredTable:

@@ -1,0 +1,153 @@
+"""Compiled steps of the closed loop's update between two rollout periods.
+
+Between periods the closed loop (:mod:`synth.closed_loop`) reads every trial's state from
+its sensors, looks up the texture under each contact and assembles the next period's
+controls: a few dozen small array operations on arrays of the batch's size, about a
+thousand times per trial. As numpy expressions each operation pays a call's fixed cost,
+which added up to more than the physics' own share of a period. Numba (a JIT compiler for
+numeric Python) runs them as one loop per period instead.
+
+Each function repeats a numpy expression of the package operation for operation, in the
+same order and the same precision (float32 table values widened to float64 where numpy
+widens them; no fused multiply-adds), so it gives the bits the numpy expression gives;
+``tests/test_physics.py`` checks each against its numpy form. Exponentials, logarithms
+and powers stay in numpy: its vectorised versions differ from the C library's, which
+compiled code calls, in the last bit of some values.
+
+``nogil``: a generation running two chunks on threads steps one chunk's loop while the
+other's holds the interpreter. ``cache``: compiled once per machine, into the package's
+``__pycache__`` (or numba's user cache where that is read-only).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+
+@numba.njit(cache=True, nogil=True)
+def layered_felt(
+    points, origins, row_start, layer, last, inv_grid, j, u, s_now, v_now, ahead, h_out, slope_out
+):
+    """:class:`synth.texture.LayeredTable`'s look-up at the path coordinates
+    ``s_now[i] + v_now[i] * ahead[t]`` under the loads whose layer position is ``(j, u)``
+    (:func:`synth.texture.layer_position`), into ``h_out`` and ``slope_out`` ``(b, k)``.
+    ``points``: the table's ``(height, slope)`` pairs, float32."""
+    b, k = h_out.shape
+    for i in range(b):
+        base = row_start[i] + j[i] * layer
+        for t in range(k):
+            pos = _clamped((s_now[i] + v_now[i] * ahead[t] - origins[i]) * inv_grid, last)
+            i0 = np.intp(pos)
+            w = pos - i0
+            p = base + i0
+            q = p + layer  # the same point in the layer above
+            h_below = np.float64(points[p, 0]) + np.float64(points[p + 1, 0] - points[p, 0]) * w
+            s_below = np.float64(points[p, 1]) + np.float64(points[p + 1, 1] - points[p, 1]) * w
+            h_above = np.float64(points[q, 0]) + np.float64(points[q + 1, 0] - points[q, 0]) * w
+            s_above = np.float64(points[q, 1]) + np.float64(points[q + 1, 1] - points[q, 1]) * w
+            h_out[i, t] = h_below + (h_above - h_below) * u[i]
+            slope_out[i, t] = s_below + (s_above - s_below) * u[i]
+
+
+@numba.njit(cache=True, nogil=True)
+def table_felt(cells, origins, row_start, last, inv_grid, s_now, v_now, ahead, h_out, slope_out):
+    """:class:`synth.texture.TextureTable`'s look-up at the path coordinates
+    ``s_now[i] + v_now[i] * ahead[t]``, into ``h_out`` and ``slope_out`` ``(b, k)``.
+    ``cells``: per grid cell its height, the height's rise, its slope, the slope's rise."""
+    b, k = h_out.shape
+    for i in range(b):
+        for t in range(k):
+            pos = _clamped((s_now[i] + v_now[i] * ahead[t] - origins[i]) * inv_grid, last)
+            i0 = np.intp(pos)
+            w = pos - i0
+            c = row_start[i] + i0
+            h_out[i, t] = cells[c, 0] + cells[c, 1] * w
+            slope_out[i, t] = cells[c, 2] + cells[c, 3] * w
+
+
+@numba.njit(inline="always")
+def _clamped(pos, last):
+    """``pos`` within ``[0, last]``; NaN raises (as numpy would index outside the table
+    with it)."""
+    if pos != pos:
+        raise FloatingPointError("NaN path coordinate in the texture look-up")
+    return min(max(pos, 0.0), last)
+
+
+@numba.njit(cache=True, nogil=True)
+def controls(h, slope, normal, xy, z_ref, direction, lever, mx, mz, control):
+    """A period's controls ``(b, k, ncontrol)``: the x/y servo set points ``xy`` ``(b, k,
+    2)``, the z set point ``z_ref``, the slope's push ``-slope * normal`` along the path
+    ``direction`` at the contact (force in columns ``mx, mx + 1``, its torque about the
+    pad's centre ``(F_y, F_x) * lever`` in ``mx + 3, mx + 4``) and the specimen's height
+    ``h`` in column ``mz``."""
+    b, k = h.shape
+    for i in range(b):
+        for t in range(k):
+            push = slope[i, t] * -normal[i]
+            fx = push * direction[i, 0]
+            fy = push * direction[i, 1]
+            control[i, t, 0] = xy[i, t, 0]
+            control[i, t, 1] = xy[i, t, 1]
+            control[i, t, 2] = z_ref[i]
+            control[i, t, mx] = fx
+            control[i, t, mx + 1] = fy
+            control[i, t, mx + 3] = fy * lever[0]
+            control[i, t, mx + 4] = fx * lever[1]
+            control[i, t, mz] = h[i, t]
+
+
+@numba.njit(cache=True, nogil=True)
+def next_state(
+    state_buf,
+    dt,
+    qvel,
+    sens,
+    direction,
+    cols,
+    state,
+    warm,
+    normal,
+    s_now,
+    v_now,
+    slip_speed,
+    wrist_sum,
+    reset,
+):
+    """After a period of ``k`` steps: each trial's ``reset`` flag (its clock, column 0 of
+    the state, advanced by less than ``k - 0.5`` steps ``dt``: MuJoCo restarted it); if
+    none was reset, the state to continue from (the period's last, into ``state``), the
+    warm start ``warm`` (the last step's change of the velocities at columns ``qvel,
+    qvel + nv``, per second) and, from the last step's sensors ``sens`` ``(b, k, n)``, the
+    inputs the next period responds to: the contact's ``normal`` load (0 without a
+    contact), the skin's path coordinate ``s_now`` and slip velocity along the path
+    ``v_now``, its slip speed, and the wrist force summed over the period, subtracted
+    from ``wrist_sum``. ``cols``: the sensors' columns (contact found, contact force z,
+    skin x, slip x, wrist). Returns whether a trial was reset (the state is then left
+    as it was)."""
+    b, k = sens.shape[0], sens.shape[1]
+    margin = (k - 0.5) * dt
+    was_reset = False
+    for i in range(b):
+        reset[i] = state_buf[i, k - 1, 0] < state[i, 0] + margin
+        was_reset = was_reset or reset[i]
+    if was_reset:
+        return True
+    c_found, c_fz, c_skin, c_slip, c_wrist = cols[0], cols[1], cols[2], cols[3], cols[4]
+    for i in range(b):
+        state[i, :] = state_buf[i, k - 1, :]
+        for c in range(warm.shape[1]):
+            warm[i, c] = (state_buf[i, k - 1, qvel + c] - state_buf[i, k - 2, qvel + c]) / dt
+        last = sens[i, k - 1]
+        normal[i] = -last[c_fz] if last[c_found] > 0 else 0.0
+        dx, dy = direction[i, 0], direction[i, 1]
+        s_now[i] = last[c_skin] * dx + last[c_skin + 1] * dy
+        slip_x, slip_y = last[c_slip], last[c_slip + 1]
+        v_now[i] = slip_x * dx + slip_y * dy
+        slip_speed[i] = np.hypot(slip_x, slip_y)
+        wrist = sens[i, 0, c_wrist]
+        for t in range(1, k):
+            wrist += sens[i, t, c_wrist]
+        wrist_sum[i] -= wrist
+    return False

@@ -1,0 +1,118 @@
+"""The closed loop's compiled steps (synth.kernels) give the bits of their numpy forms."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import synth
+from synth import kernels
+from synth.config import SynthConfig
+
+
+def _extrapolated(table, s, v, ahead, load):
+    h, slope = np.empty((s.size, ahead.size)), np.empty((s.size, ahead.size))
+    table.felt_into(s, v, ahead, load, h, slope)
+    return h, slope
+
+
+def test_the_compiled_texture_look_ups_give_the_tables_bits():
+    """``felt_into`` reads a table at extrapolated coordinates as calling it does, to the
+    last bit: in the rows, before and past their ends, under loads between, on and beyond
+    the layers, for both kinds of table."""
+    rng = np.random.default_rng(11)
+    finger = SynthConfig().finger
+    texture = synth.materials.MATERIALS["resin"].texture
+    surfaces = [
+        synth.texture.loaded_surface(
+            texture, finger, 0.0, 0.004, np.random.default_rng(seed), force_n=force
+        )
+        for seed, force in ((1, 1.0), (2, 0.6), (3, 1.4), (4, 1.1))
+    ]
+    layered = synth.texture.texture_table(surfaces)
+    assert isinstance(layered, synth.texture.LayeredTable)
+    fixed = synth.texture.TextureTable(*synth.texture.stack_surfaces([s.at(1.0) for s in surfaces]))
+    ahead = np.arange(1, 5) * 5e-4
+    for _ in range(20):
+        s = rng.uniform(-0.003, 0.007, 4)  # some past the surfaces' ends
+        v = rng.normal(0.0, 0.02, 4)
+        load = rng.choice([0.0, 0.3, 1.0, 1.7, 5.0]) * rng.uniform(0.8, 1.2, 4)
+        coord = s[:, None] + v[:, None] * ahead
+        for table in (layered, fixed):
+            want = table(coord.copy(), load)
+            got = _extrapolated(table, s, v, ahead, load)
+            assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+    with pytest.raises(FloatingPointError, match="NaN"):
+        _extrapolated(layered, np.array([np.nan, 0, 0, 0]), np.zeros(4), ahead, np.ones(4))
+
+
+def test_the_compiled_controls_give_their_numpy_forms_bits():
+    rng = np.random.default_rng(5)
+    b, k, mx, mz = 6, 4, 21, 29
+    h, slope = rng.normal(0, 1e-6, (b, k)), rng.normal(0, 1e-2, (b, k))
+    normal, z_ref = rng.uniform(0, 2, b), rng.normal(0, 1e-3, b)
+    xy = rng.normal(0, 1e-2, (b, 3, k, 2))[:, 1]  # a strided view, as the loop passes it
+    angle = rng.normal(0, 0.01, b)
+    direction = np.stack([np.cos(angle), np.sin(angle)], axis=1)
+    lever = np.array([0.007, -0.007])
+    got = np.zeros((b, k, 30))
+    kernels.controls(h, slope, normal, xy, z_ref, direction, lever, mx, mz, got)
+
+    want = np.zeros((b, k, 30))
+    force = (slope * -normal[:, None])[:, :, None] * direction[:, None, :]
+    want[:, :, 0:2] = xy
+    want[:, :, 2] = z_ref[:, None]
+    want[:, :, mx : mx + 2] = force
+    want[:, :, mx + 3 : mx + 5] = force[:, :, ::-1] * lever
+    want[:, :, mz] = h
+    assert np.array_equal(got, want)
+
+
+def _state_inputs(rng, b, k, nstate, nsens, dt):
+    state = rng.normal(0, 1, (b, nstate))
+    state[:, 0] = 1.0 + rng.uniform(0, 1, b)  # the clocks
+    state_buf = rng.normal(0, 1, (b, k, nstate))
+    state_buf[:, :, 0] = state[:, :1] + dt * np.arange(1, k + 1)
+    sens = rng.normal(0, 1, (b, k, nsens))
+    sens[:, :, 18] = rng.choice([0.0, 1.0, 2.0], (b, k))  # contacts found
+    return state, state_buf, sens
+
+
+def test_the_compiled_state_update_gives_its_numpy_forms_bits():
+    """After a period: the state, warm start, load, path coordinate, slip and wrist sum
+    as the numpy expressions give them; a trial whose clock did not advance is reported
+    and leaves the state as it was."""
+    rng = np.random.default_rng(8)
+    b, k, nstate, nsens, nq, nv, dt = 5, 4, 15, 32, 6, 6, 5e-4
+    cols = np.array([18, 21, 12, 15, 30])  # found, force z, skin x, slip x, wrist
+    angle = rng.normal(0, 0.01, b)
+    direction = np.stack([np.cos(angle), np.sin(angle)], axis=1)
+    state, state_buf, sens = _state_inputs(rng, b, k, nstate, nsens, dt)
+    wrist_sum = rng.normal(0, 1, b)
+    out = [np.zeros((b, nv)), *(np.zeros(b) for _ in range(4))]
+    got_state, got_wrist, reset = state.copy(), wrist_sum.copy(), np.ones(b, dtype=bool)
+    args = (state_buf, dt, 1 + nq, sens, direction, cols, got_state, *out, got_wrist, reset)
+    assert not kernels.next_state(*args)
+    assert not reset.any()
+
+    qvel = slice(1 + nq, 1 + nq + nv)
+    last = sens[:, k - 1]
+    dx, dy = direction[:, 0], direction[:, 1]
+    want = [
+        (state_buf[:, k - 1, qvel] - state_buf[:, k - 2, qvel]) / dt,
+        np.where(last[:, 18] > 0, -last[:, 21], 0.0),
+        last[:, 12] * dx + last[:, 13] * dy,
+        last[:, 15] * dx + last[:, 16] * dy,
+        np.hypot(last[:, 15], last[:, 16]),
+    ]
+    assert np.array_equal(got_state, state_buf[:, k - 1])
+    for got, expected in zip(out, want, strict=True):
+        assert np.array_equal(got, expected)
+    assert np.array_equal(got_wrist, wrist_sum - sens[:, :, 30].sum(axis=1))
+
+    state_buf[3, k - 1, 0] = state[3, 0]  # MuJoCo restarted trial 3's clock
+    before = state.copy()
+    args = (state_buf, dt, 1 + nq, sens, direction, cols, state, *out, wrist_sum, reset)
+    assert kernels.next_state(*args)
+    assert np.flatnonzero(reset).tolist() == [3]
+    assert np.array_equal(state, before)
