@@ -151,3 +151,41 @@ def next_state(
             wrist += sens[i, t, c_wrist]
         wrist_sum[i] -= wrist
     return False
+
+
+@numba.njit(cache=True, nogil=True)
+def touchable(excess, starts, centre, seg_a, edges, edge_sq, previous, seg_piece, reach_m, out):
+    """:func:`synth.pieces.touchable` from the centres' ``excess`` over every piece's
+    edges ``(b, edges)`` (the pieces' edges from ``starts``), into ``out`` ``(b,
+    pieces)``: the first piece whose every edge holds the centre, else the owners of the
+    outline segments ``(seg_a, edges, edge_sq, previous, seg_piece)`` whose nearest point
+    is within ``reach_m`` at a segment's interior or at a vertex both sides end at."""
+    b, m = excess.shape
+    n, s = starts.size, seg_a.shape[0]
+    t = np.empty(s)
+    for i in range(b):
+        above = False
+        for p in range(n):
+            end = starts[p + 1] if p + 1 < n else m
+            worst = excess[i, starts[p]]
+            for e in range(starts[p] + 1, end):
+                if excess[i, e] > worst:
+                    worst = excess[i, e]
+            out[i, p] = worst <= 0.0 and not above
+            above = above or worst <= 0.0
+        if above:
+            continue
+        cx, cy = centre[i, 0], centre[i, 1]
+        for j in range(s):
+            t[j] = ((cx - seg_a[j, 0]) * edges[j, 0] + (cy - seg_a[j, 1]) * edges[j, 1]) / edge_sq[
+                j
+            ]
+        for j in range(s):
+            clamped = min(max(t[j], 0.0), 1.0)
+            gap_x = cx - (seg_a[j, 0] + clamped * edges[j, 0])
+            gap_y = cy - (seg_a[j, 1] + clamped * edges[j, 1])
+            if np.hypot(gap_x, gap_y) < reach_m:
+                interior = t[j] > 0.0 and t[j] < 1.0
+                corner = t[j] <= 0.0 and t[previous[j]] >= 1.0
+                if interior or corner:
+                    out[i, seg_piece[j]] = True

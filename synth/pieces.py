@@ -37,6 +37,8 @@ import shapely
 import shapes
 from shapes.partition import convex_partition
 
+from . import kernels
+
 
 @dataclass(frozen=True)
 class Outline:
@@ -115,29 +117,25 @@ def touchable(outline: Outline, centre: np.ndarray, reach_m: float) -> np.ndarra
     """Boolean ``(b, n_pieces)``: the pieces carrying a distinct region of the surface
     that a skin sphere centred above ``centre`` ``(b, 2)`` can touch (module docstring)."""
     # Inside a piece: every edge's half-plane holds (the largest excess is <= 0). On a seam
-    # the centre is inside both neighbours; the first of them is chosen.
+    # the centre is inside both neighbours; the first of them is chosen. Outside (the
+    # other trials): local minima of the distance along the outline, within reach: per
+    # segment, the foot of the perpendicular at parameter t along it, clamped to it; a
+    # segment's interior, or a vertex where both sides end (kernels.touchable, compiled:
+    # the closed loop asks every period).
     excess = centre @ outline.normals.T - outline.offsets
-    worst = np.maximum.reduceat(excess, outline.starts, axis=1)  # (b, n_pieces)
-    inside = worst <= 0.0
-    out = inside & (np.cumsum(inside, axis=1) == 1)
-    above = out.any(axis=1)
-    # Outside (the other trials): local minima of the distance along the outline, within
-    # reach. Per trial and segment: the foot of the perpendicular at parameter t along the
-    # segment, clamped to it.
-    rows = np.flatnonzero(~above)
-    if rows.size == 0:
-        return out
-    a, edge = outline.seg_a, outline.edges
-    cx, cy = centre[rows, 0:1], centre[rows, 1:2]  # (r, 1)
-    t = ((cx - a[:, 0]) * edge[:, 0] + (cy - a[:, 1]) * edge[:, 1]) / outline.edge_sq
-    clamped = np.minimum(np.maximum(t, 0.0), 1.0)
-    gap_x = cx - (a[:, 0] + clamped * edge[:, 0])
-    gap_y = cy - (a[:, 1] + clamped * edge[:, 1])
-    near = np.hypot(gap_x, gap_y) < reach_m
-    interior = (t > 0.0) & (t < 1.0)
-    corner = (t <= 0.0) & (t[:, outline.previous] >= 1.0)  # both sides end at vertex a
-    trial, seg = np.nonzero(near & (interior | corner))
-    out[rows[trial], outline.seg_piece[seg]] = True
+    out = np.zeros((centre.shape[0], outline.n_pieces), dtype=bool)
+    kernels.touchable(
+        excess,
+        outline.starts,
+        centre,
+        outline.seg_a,
+        outline.edges,
+        outline.edge_sq,
+        outline.previous,
+        outline.seg_piece,
+        reach_m,
+        out,
+    )
     return out
 
 

@@ -116,3 +116,38 @@ def test_the_compiled_state_update_gives_its_numpy_forms_bits():
     assert kernels.next_state(*args)
     assert np.flatnonzero(reset).tolist() == [3]
     assert np.array_equal(state, before)
+
+
+def _touchable_numpy(outline, centre, reach_m):
+    """:func:`synth.pieces.touchable` as numpy expressions."""
+    excess = centre @ outline.normals.T - outline.offsets
+    worst = np.maximum.reduceat(excess, outline.starts, axis=1)
+    inside = worst <= 0.0
+    out = inside & (np.cumsum(inside, axis=1) == 1)
+    rows = np.flatnonzero(~out.any(axis=1))
+    a, edge = outline.seg_a, outline.edges
+    cx, cy = centre[rows, 0:1], centre[rows, 1:2]
+    t = ((cx - a[:, 0]) * edge[:, 0] + (cy - a[:, 1]) * edge[:, 1]) / outline.edge_sq
+    clamped = np.minimum(np.maximum(t, 0.0), 1.0)
+    gap_x = cx - (a[:, 0] + clamped * edge[:, 0])
+    gap_y = cy - (a[:, 1] + clamped * edge[:, 1])
+    near = np.hypot(gap_x, gap_y) < reach_m
+    interior = (t > 0.0) & (t < 1.0)
+    corner = (t <= 0.0) & (t[:, outline.previous] >= 1.0)
+    trial, seg = np.nonzero(near & (interior | corner))
+    out[rows[trial], outline.seg_piece[seg]] = True
+    return out
+
+
+@pytest.mark.parametrize("shape", ["moon", "pentagram"])
+def test_the_compiled_piece_choice_gives_its_numpy_forms_choice(shape):
+    """Over centres on a grid across the specimen, from a strided view as the loop
+    passes them, the pieces chosen are those of the numpy form, inside pieces, near the
+    outline and far from it."""
+    outline = synth.pieces.outline_pieces(shape)
+    grid = np.linspace(-0.012, 0.012, 97)
+    centres = np.stack(np.meshgrid(grid, grid), axis=-1).reshape(-1, 2)
+    view = np.concatenate([centres, np.zeros_like(centres)], axis=1)[:, :2]
+    chosen = synth.pieces.touchable(outline, view, 0.0025)
+    assert np.array_equal(chosen, _touchable_numpy(outline, centres, 0.0025))
+    assert chosen.any(axis=1).mean() > 0.3 and not chosen.all()
