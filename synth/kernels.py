@@ -189,3 +189,57 @@ def touchable(excess, starts, centre, seg_a, edges, edge_sq, previous, seg_piece
                 corner = t[j] <= 0.0 and t[previous[j]] >= 1.0
                 if interior or corner:
                     out[i, seg_piece[j]] = True
+
+
+@numba.njit(cache=True, nogil=True)
+def mechanics(
+    sens,
+    cos_pitch,
+    sin_pitch,
+    direction,
+    cols,
+    force,
+    mount_force,
+    mount_torque,
+    contact_ahead,
+    indentation,
+    traction,
+):
+    """The mechanics the sensor chain reads, from the sensors ``sens`` ``(b, n, ...)`` at
+    columns ``cols`` (contact, pad position, contact depth, mount force, mount torque):
+    the contact ``force`` ``(b, n, 3)`` (0 without a contact), the mount's force and
+    torque turned from the rocking pad's frame into the phalanx's (by the pad's pitch,
+    given by its cosine and sine ``(b, n)``), how far the contact centre lies ahead of
+    the pad along the path ``direction`` ``(b, 2)``, the skin's indentation (the
+    deepest penetration, 0 without one) and the traction along the path
+    (:func:`synth.simulator._process`'s mechanics)."""
+    c_contact, c_pad, c_depth, c_force, c_torque = cols[0], cols[1], cols[2], cols[3], cols[4]
+    b, n = sens.shape[0], sens.shape[1]
+    for i in range(b):
+        dx, dy = direction[i, 0], direction[i, 1]
+        for t in range(n):
+            row = sens[i, t]
+            found = row[c_contact] > 0
+            for a in range(3):
+                force[i, t, a] = row[c_contact + 1 + a] if found else 0.0
+            c, s = cos_pitch[i, t], sin_pitch[i, t]
+            x, y, z = row[c_force], row[c_force + 1], row[c_force + 2]
+            mount_force[i, t, 0] = c * x + s * z
+            mount_force[i, t, 1] = y
+            mount_force[i, t, 2] = c * z - s * x
+            x, y, z = row[c_torque], row[c_torque + 1], row[c_torque + 2]
+            mount_torque[i, t, 0] = c * x + s * z
+            mount_torque[i, t, 1] = y
+            mount_torque[i, t, 2] = c * z - s * x
+            if found:
+                rel_x = row[c_contact + 7] - row[c_pad]
+                rel_y = row[c_contact + 8] - row[c_pad + 1]
+                contact_ahead[i, t] = rel_x * dx + rel_y * dy
+            else:
+                contact_ahead[i, t] = 0.0
+            if row[c_depth] > 0:
+                depth = -row[c_depth + 1]
+                indentation[i, t] = depth if depth >= 0.0 else 0.0
+            else:
+                indentation[i, t] = 0.0
+            traction[i, t] = -(force[i, t, 0] * dx + force[i, t, 1] * dy)

@@ -40,7 +40,7 @@ import shapes
 from shapes import SPECIMEN
 from tactile_synth.threads import rollout_threads
 
-from . import contact, sensors, texture
+from . import contact, kernels, sensors, texture
 from . import scene as scene_mod
 from .closed_loop import CLOCK_START_S, ClosedLoop, LoopTrial
 from .config import SynthConfig
@@ -374,11 +374,8 @@ def _check_stable(
     raise SimulationError(f"MuJoCo warning {', '.join(warned)} while simulating {culprit}")
 
 
-def _unrock(vectors: np.ndarray, c: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """Vectors ``(..., 3)`` in the pad's frame, expressed in the phalanx's (rotation by
-    the pad's pitch about y, given by its cosine ``c`` and sine ``s``)."""
-    x, y, z = vectors[..., 0], vectors[..., 1], vectors[..., 2]
-    return np.stack([c * x + s * z, y, c * z - s * x], axis=-1)
+#: The sensors :func:`synth.kernels.mechanics` reads, in its order.
+_MECHANICS_COLUMNS = ("contact", "pad_pos", "contact_depth", "mount_force", "mount_torque")
 
 
 def _process(
@@ -388,21 +385,30 @@ def _process(
     k = steps_per_sample(config)
     fs = SAMPLE_RATE_HZ * k
     contact_data = sens[..., cols["contact"]]
-    found = contact_data[..., 0] > 0
-    force = np.where(found[..., None], contact_data[..., 1:4], 0.0)
     pad_pos = sens[..., cols["pad_pos"]]
-    direction = np.array([p.loop.direction for p in plans])[:, None, :]  # (b, 1, 2)
-    rel = contact_data[..., 7:9] - pad_pos[..., :2]
-    depth = sens[..., cols["contact_depth"]]
     # The mount's force sensor turns with the rocking pad; the gauges' phalanx does not.
     pitch = sens[..., cols["pad_pitch"].start]
-    cos_pitch, sin_pitch = np.cos(pitch), np.sin(pitch)
+    b, n = pitch.shape
+    force = np.empty((b, n, 3))
     mech = sensors.Mechanics(
-        mount_force=_unrock(sens[..., cols["mount_force"]], cos_pitch, sin_pitch),
-        mount_torque=_unrock(sens[..., cols["mount_torque"]], cos_pitch, sin_pitch),
-        contact_ahead_m=np.where(found, (rel * direction).sum(axis=-1), 0.0),
-        indentation_m=np.where(depth[..., 0] > 0, np.maximum(-depth[..., 1], 0.0), 0.0),
-        traction_n=-(force[..., :2] * direction).sum(axis=-1),
+        mount_force=np.empty((b, n, 3)),
+        mount_torque=np.empty((b, n, 3)),
+        contact_ahead_m=np.empty((b, n)),
+        indentation_m=np.empty((b, n)),
+        traction_n=np.empty((b, n)),
+    )
+    kernels.mechanics(
+        sens,
+        np.cos(pitch),
+        np.sin(pitch),
+        np.array([p.loop.direction for p in plans]),
+        np.array([cols[c].start for c in _MECHANICS_COLUMNS]),
+        force,
+        mech.mount_force,
+        mech.mount_torque,
+        mech.contact_ahead_m,
+        mech.indentation_m,
+        mech.traction_n,
     )
     strain = sensors.gauge_strains(mech, config.finger, config.strain_gauge)
     sg = sensors.bridge_volts(strain, config.strain_gauge, fs)

@@ -151,3 +151,46 @@ def test_the_compiled_piece_choice_gives_its_numpy_forms_choice(shape):
     chosen = synth.pieces.touchable(outline, view, 0.0025)
     assert np.array_equal(chosen, _touchable_numpy(outline, centres, 0.0025))
     assert chosen.any(axis=1).mean() > 0.3 and not chosen.all()
+
+
+def test_the_compiled_mechanics_give_their_numpy_forms_bits():
+    """The contact force, the mount's force and torque in the phalanx's frame, the
+    contact's lead, the indentation and the traction as numpy expressions give them,
+    with and without a contact and a penetration."""
+    rng = np.random.default_rng(21)
+    b, n = 3, 50
+    cols = synth.scene.sensor_columns()
+    sens = rng.normal(0, 1, (b, n, 32))
+    sens[..., cols["contact"].start] = rng.choice([0.0, 1.0, 3.0], (b, n))
+    sens[..., cols["contact_depth"].start] = rng.choice([0.0, 1.0], (b, n))
+    pitch = sens[..., cols["pad_pitch"].start]
+    cos_pitch, sin_pitch = np.cos(pitch), np.sin(pitch)
+    angle = rng.normal(0, 0.01, b)
+    direction = np.stack([np.cos(angle), np.sin(angle)], axis=1)
+    names = ("contact", "pad_pos", "contact_depth", "mount_force", "mount_torque")
+    got = [np.empty((b, n, 3)), np.empty((b, n, 3)), np.empty((b, n, 3))]
+    got += [np.empty((b, n)) for _ in range(3)]
+    index = np.array([cols[c].start for c in names])
+    kernels.mechanics(sens, cos_pitch, sin_pitch, direction, index, *got)
+
+    def unrock(v):
+        x, y, z = v[..., 0], v[..., 1], v[..., 2]
+        return np.stack([cos_pitch * x + sin_pitch * z, y, cos_pitch * z - sin_pitch * x], -1)
+
+    contact = sens[..., cols["contact"]]
+    found = contact[..., 0] > 0
+    force = np.where(found[..., None], contact[..., 1:4], 0.0)
+    rel = contact[..., 7:9] - sens[..., cols["pad_pos"]][..., :2]
+    depth = sens[..., cols["contact_depth"]]
+    d = direction[:, None, :]
+    want = [
+        force,
+        unrock(sens[..., cols["mount_force"]]),
+        unrock(sens[..., cols["mount_torque"]]),
+        np.where(found, (rel * d).sum(axis=-1), 0.0),
+        np.where(depth[..., 0] > 0, np.maximum(-depth[..., 1], 0.0), 0.0),
+        -(force[..., :2] * d).sum(axis=-1),
+    ]
+    for g, w in zip(got, want, strict=True):
+        assert np.array_equal(g, w)
+    assert 0 < found.mean() < 1 and (want[4] > 0).any() and (want[4] == 0).any()
