@@ -1,18 +1,20 @@
-"""Compiled steps of the closed loop's update between two rollout periods.
+"""Compiled steps of the simulator's per-period and per-sample arithmetic.
 
 Between periods the closed loop (:mod:`synth.closed_loop`) reads every trial's state from
-its sensors, looks up the texture under each contact and assembles the next period's
-controls: a few dozen small array operations on arrays of the batch's size, about a
-thousand times per trial. As numpy expressions each operation pays a call's fixed cost,
-which added up to more than the physics' own share of a period. Numba (a JIT compiler for
-numeric Python) runs them as one loop per period instead.
+its sensors, looks up the texture under each contact, chooses the pieces a concave
+outline's skin may touch and assembles the next period's controls: a few dozen small
+array operations on arrays of the batch's size, about a thousand times per trial. As
+numpy expressions each operation pays a call's fixed cost, which added up to 4-5 ms per
+trial, about an eighth of the physics' time. The sensor chain (:func:`synth.simulator._process`)
+starts from a dozen full-length expressions that each write a temporary array. Numba (a
+JIT compiler for numeric Python) runs each group as one loop instead.
 
 Each function repeats a numpy expression of the package operation for operation, in the
 same order and the same precision (float32 table values widened to float64 where numpy
 widens them; no fused multiply-adds), so it gives the bits the numpy expression gives;
-``tests/test_physics.py`` checks each against its numpy form. Exponentials, logarithms
-and powers stay in numpy: its vectorised versions differ from the C library's, which
-compiled code calls, in the last bit of some values.
+``tests/test_kernels.py`` checks each against its numpy form. Exponentials, logarithms,
+powers and trigonometric functions stay in numpy: its vectorised versions differ from
+the C library's, which compiled code calls, in the last bit of some values.
 
 ``nogil``: a generation running two chunks on threads steps one chunk's loop while the
 other's holds the interpreter. ``cache``: compiled once per machine, into the package's
