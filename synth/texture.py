@@ -438,19 +438,19 @@ class TextureTable:
         cells[..., 2] = slopes[:, :-1]
         cells[..., 3] = slopes[:, 1:] - slopes[:, :-1]
         self._cells = cells.reshape(-1, 4)
-        self._origins = np.asarray(origins, dtype=float)[:, None]
-        self._row_start = (np.arange(b) * (n - 1))[:, None]  # first cell of each row
+        self._origins = np.asarray(origins, dtype=float)
+        self._row_start = np.arange(b) * (n - 1)  # first cell of each row
         self._last = n - 1.000001  # clamp just inside the last cell
 
     def __call__(
         self, coordinate_m: np.ndarray, load_n: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
-        pos = (coordinate_m - self._origins) * (1.0 / GRID_M)
+        pos = (coordinate_m - self._origins[:, None]) * (1.0 / GRID_M)
         np.maximum(pos, 0.0, out=pos)
         np.minimum(pos, self._last, out=pos)
         i0 = pos.astype(np.intp)
         w = pos - i0
-        i0 += self._row_start
+        i0 += self._row_start[:, None]
         c = self._cells[i0]
         return c[..., 0] + c[..., 1] * w, c[..., 2] + c[..., 3] * w
 
@@ -469,8 +469,8 @@ class TextureTable:
         (:mod:`synth.kernels`)."""
         kernels.table_felt(
             self._cells,
-            self._origins[:, 0],
-            self._row_start[:, 0],
+            self._origins,
+            self._row_start,
             self._last,
             1.0 / GRID_M,
             s_m,
@@ -501,9 +501,9 @@ class LayeredTable:
             row[:, :size, 1] = s.slope
             row[:, size:, 1] = 0.0
         self._points = points.reshape(-1, 2)
-        self._origins = np.array([s.origin_m for s in surfaces])[:, None]
+        self._origins = np.array([s.origin_m for s in surfaces])
         self._first_load = np.array([s.loads_n[0] for s in surfaces])
-        self._row_start = (np.arange(b) * m * n)[:, None]  # first point of each trial
+        self._row_start = np.arange(b) * m * n  # first point of each trial
         self._layer = n  # points from one layer to the next
         # The four points around a reading: this grid point and the next, in the layer
         # below the load and in the one above.
@@ -514,13 +514,13 @@ class LayeredTable:
     def __call__(
         self, coordinate_m: np.ndarray, load_n: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        pos = (coordinate_m - self._origins) * (1.0 / GRID_M)
+        pos = (coordinate_m - self._origins[:, None]) * (1.0 / GRID_M)
         np.maximum(pos, 0.0, out=pos)
         np.minimum(pos, self._last, out=pos)
         i0 = pos.astype(np.intp)
         w = (pos - i0)[..., None]
         j, u = layer_position(self._first_load, self.layers, load_n)
-        i0 += self._row_start + (j * self._layer)[:, None]
+        i0 += (self._row_start + j * self._layer)[:, None]
         q = self._points[i0[..., None] + self._corners]  # (b, k, 4, 2)
         below = q[..., 0, :] + (q[..., 1, :] - q[..., 0, :]) * w
         above = q[..., 2, :] + (q[..., 3, :] - q[..., 2, :]) * w
@@ -543,8 +543,8 @@ class LayeredTable:
         j, u = layer_position(self._first_load, self.layers, load_n)
         kernels.layered_felt(
             self._points,
-            self._origins[:, 0],
-            self._row_start[:, 0],
+            self._origins,
+            self._row_start,
             self._layer,
             self._last,
             1.0 / GRID_M,
