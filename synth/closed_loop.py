@@ -156,9 +156,18 @@ class ClosedLoop:
 
     def friction(self, slip_speed: np.ndarray, normal_n: np.ndarray) -> np.ndarray:
         """Coefficient of each trial's law at its slip speed and normal load."""
-        f = np.maximum(normal_n, 0.05)
-        weak = np.exp(-np.square(slip_speed / self.v_stribeck))
-        return (self.kinetic + self.static_excess * weak) * f**self.load_exp * self.scale
+        out = np.empty(self.b)
+        kernels.friction_law(
+            slip_speed,
+            normal_n,
+            self.kinetic,
+            self.static_excess,
+            self.v_stribeck,
+            self.load_exp,
+            self.scale,
+            out,
+        )
+        return out
 
     def run(
         self,

@@ -8,13 +8,15 @@ modulus ``E`` (Poisson ``nu``) pressed on a rigid flat with force ``F`` indents 
 ``w(r) = delta / pi * ((2 - r^2/a^2) asin(a/r) + sqrt(r^2/a^2 - 1))`` (half of
 ``delta`` at the contact's rim, decaying as ``a / r``).
 
-All functions are elementwise over numpy arrays.
+All functions are elementwise over numpy arrays. Cube roots, arcsines, exponentials and
+powers come from the C library (:mod:`synth.kernels`), for the same bits on every CPU.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from . import kernels
 from .materials import FrictionLaw
 
 
@@ -27,14 +29,14 @@ def hertz_indentation_m(force_n, radius_m: float, modulus_pa: float, poisson: fl
     """Indentation (m) of an elastic sphere on a rigid flat under ``force_n``."""
     e_star = effective_modulus_pa(modulus_pa, poisson)
     f = np.maximum(np.asarray(force_n, dtype=float), 0.0)
-    return np.cbrt(9.0 * f**2 / (16.0 * e_star**2 * radius_m))
+    return kernels.cbrt(9.0 * f**2 / (16.0 * e_star**2 * radius_m))
 
 
 def hertz_force_n(indentation_m, radius_m: float, modulus_pa: float, poisson: float):
     """Force (N) that indents an elastic sphere on a rigid flat by ``indentation_m``."""
     e_star = effective_modulus_pa(modulus_pa, poisson)
     d = np.maximum(np.asarray(indentation_m, dtype=float), 0.0)
-    return 4.0 / 3.0 * e_star * np.sqrt(radius_m) * d**1.5
+    return 4.0 / 3.0 * e_star * np.sqrt(radius_m) * kernels.power(d, 1.5)
 
 
 def surface_deflection_m(distance_m, indentation_m, radius_m: float):
@@ -47,7 +49,7 @@ def surface_deflection_m(distance_m, indentation_m, radius_m: float):
     a_safe = np.where(a > 0, a, 1.0)
     ratio = np.clip(a_safe / np.maximum(r, 1e-12), 0.0, 1.0)
     rr = np.maximum(r / a_safe, 1.0)
-    outside = delta / np.pi * ((2.0 - rr**2) * np.arcsin(ratio) + np.sqrt(rr**2 - 1.0))
+    outside = delta / np.pi * ((2.0 - rr**2) * kernels.arcsin(ratio) + np.sqrt(rr**2 - 1.0))
     within = delta - r**2 / (2.0 * radius_m)
     out = np.where(inside, within, outside)
     return np.where(delta > 0, np.maximum(out, 0.0), 0.0)
@@ -68,7 +70,7 @@ def surface_slope(distance_m, indentation_m, radius_m: float):
     outside = (
         delta
         / (np.pi * a_safe)
-        * (2.0 * np.sqrt(rho**2 - 1.0) / rho - 2.0 * rho * np.arcsin(1.0 / rho))
+        * (2.0 * np.sqrt(rho**2 - 1.0) / rho - 2.0 * rho * kernels.arcsin(1.0 / rho))
     )
     slope = np.where(r <= a, -r / radius_m, outside) * np.sign(x)
     return np.where(delta > 0, slope, 0.0)
@@ -79,7 +81,7 @@ def friction_coefficient(law: FrictionLaw, slip_speed_m_s, normal_force_n, scale
     (the stroke's scatter factor)."""
     v = np.abs(np.asarray(slip_speed_m_s, dtype=float))
     f = np.maximum(np.asarray(normal_force_n, dtype=float), 0.05)  # bounded at light touch
-    stribeck = law.kinetic + (law.static - law.kinetic) * np.exp(
+    stribeck = law.kinetic + (law.static - law.kinetic) * kernels.exp(
         -((v / law.stribeck_velocity_m_s) ** 2)
     )
-    return stribeck * f**law.load_exponent * scale
+    return stribeck * kernels.power(f, law.load_exponent) * scale

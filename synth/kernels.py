@@ -12,9 +12,17 @@ JIT compiler for numeric Python) runs each group as one loop instead.
 Each function repeats a numpy expression of the package operation for operation, in the
 same order and the same precision (float32 table values widened to float64 where numpy
 widens them; no fused multiply-adds), so it gives the bits the numpy expression gives;
-``tests/test_kernels.py`` checks each against its numpy form. Exponentials, logarithms,
-powers and trigonometric functions stay in numpy: its vectorised versions differ from
-the C library's, which compiled code calls, in the last bit of some values.
+``tests/test_kernels.py`` checks each against its numpy form.
+
+Exponentials, logarithms, powers, arcsines and cube roots come from the C library (the
+ufuncs :data:`exp`, :data:`log`, :data:`power`, :data:`arcsin` and :data:`cbrt`, and
+``math`` calls inside the kernels), never from numpy's own: numpy picks a vectorised
+version of these by the CPU's instructions, and on a CPU with AVX-512 its versions differ
+from the C library's in the last bit of some values, so the same seed would give other
+bits there than on a CPU without it. The C library's functions give the same bits on every
+x86-64 CPU, and they are what numpy itself calls on a CPU without AVX-512. Intel's vector
+math library (SVML), which numba would use where it is installed, is turned off for the
+same reason. Sines and cosines stay in numpy: its versions match the C library's.
 
 ``nogil``: a generation running two chunks on threads steps one chunk's loop while the
 other's holds the interpreter. ``cache``: compiled once per machine, into the package's
@@ -23,8 +31,105 @@ other's holds the interpreter. ``cache``: compiled once per machine, into the pa
 
 from __future__ import annotations
 
+import math
+import os
+
+# Before numba's first import: its configuration reads the variable once.
+os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")
+
 import numba
 import numpy as np
+
+if numba.config.USING_SVML:  # numba was imported earlier with SVML enabled
+    raise ImportError(
+        "synth needs numba without Intel's SVML (its vector math changes the data's bits): "
+        "set NUMBA_DISABLE_INTEL_SVML=1 before importing numba"
+    )
+
+
+@numba.vectorize(["float64(float64)"], cache=True, nopython=True)
+def exp(x):
+    """``e**x`` from the C library (a ufunc, for numpy's ``np.exp``)."""
+    return math.exp(x)
+
+
+@numba.vectorize(["float64(float64)"], cache=True, nopython=True)
+def log(x):
+    """The natural logarithm from the C library (a ufunc, for numpy's ``np.log``)."""
+    return math.log(x)
+
+
+@numba.vectorize(["float64(float64, float64)"], cache=True, nopython=True)
+def power(x, y):
+    """``x**y`` from the C library (a ufunc, for numpy's ``np.power``)."""
+    return x**y
+
+
+@numba.vectorize(["float64(float64)"], cache=True, nopython=True)
+def arcsin(x):
+    """The arcsine from the C library (a ufunc, for numpy's ``np.arcsin``)."""
+    return math.asin(x)
+
+
+@numba.vectorize(["float64(float64)"], cache=True, nopython=True)
+def cbrt(x):
+    """The cube root from the C library (a ufunc, for numpy's ``np.cbrt``)."""
+    return np.cbrt(x)
+
+
+@numba.njit(cache=True, nogil=True)
+def friction_law(slip_speed, normal, kinetic, static_excess, v_stribeck, load_exp, scale, out):
+    """Each trial's friction coefficient (:meth:`synth.closed_loop.ClosedLoop.friction`)
+    into ``out``: ``(kinetic + static_excess * exp(-(slip_speed / v_stribeck)**2)) *
+    max(normal, 0.05)**load_exp * scale``."""
+    for i in range(out.size):
+        f = normal[i] if not normal[i] < 0.05 else 0.05  # NaN stays NaN, as np.maximum
+        ratio = slip_speed[i] / v_stribeck[i]
+        weak = math.exp(-(ratio * ratio))
+        out[i] = (kinetic[i] + static_excess[i] * weak) * f ** load_exp[i] * scale[i]
+
+
+@numba.njit(cache=True, nogil=True)
+def layer_position(first_load, layers, inv_log_ratio, load, j_out, u_out):
+    """:func:`synth.texture.layer_position` for ``layers`` > 1 into ``j_out`` and
+    ``u_out``: the position ``log(max(load, 1e-9) / first_load) * inv_log_ratio`` clamped
+    to ``[0, layers - 1]``, its layer (at most ``layers - 2``) and the fraction above it."""
+    top = layers - 1.0
+    for i in range(load.size):
+        x = load[i] if not load[i] < 1e-9 else 1e-9
+        pos = math.log(x / first_load[i]) * inv_log_ratio
+        pos = pos if not pos < 0.0 else 0.0
+        pos = pos if not pos > top else top
+        j = min(np.intp(pos), layers - 2)
+        j_out[i] = j
+        u_out[i] = pos - j
+
+
+@numba.njit(cache=True, nogil=True)
+def weighted_rows(weights, rows, out):
+    """``out[n] = sum over r of weights[r] * rows[r, n]``, summed over ``r`` in order: the
+    vector-matrix product ``weights @ rows`` with one summation order on every CPU (a
+    BLAS product picks its order, and so its last bits, by the CPU)."""
+    out[:] = 0.0
+    for r in range(rows.shape[0]):
+        w = weights[r]
+        for n in range(out.size):
+            out[n] += w * rows[r, n]
+
+
+@numba.njit(cache=True, nogil=True)
+def box_mean(x, width, out):
+    """The moving mean of ``x`` over ``width`` samples, aligned and zero-padded as
+    ``np.convolve(x, np.ones(width) / width, mode="same")``; each output sums its terms in
+    one order on every CPU (numpy's convolution sums through the BLAS)."""
+    n = x.size
+    half = (width - 1) // 2
+    tap = 1.0 / width
+    for i in range(n):
+        acc = 0.0
+        for m in range(max(i + half - width + 1, 0), min(i + half + 1, n)):
+            acc += x[m] * tap
+        out[i] = acc
 
 
 @numba.njit(cache=True, nogil=True)
@@ -156,28 +261,33 @@ def next_state(
 
 
 @numba.njit(cache=True, nogil=True)
-def touchable(excess, starts, centre, seg_a, edges, edge_sq, previous, seg_piece, reach_m, out):
-    """:func:`synth.pieces.touchable` from the centres' ``excess`` over every piece's
-    edges ``(b, edges)`` (the pieces' edges from ``starts``), into ``out`` ``(b,
-    pieces)``: the first piece whose every edge holds the centre, else the owners of the
-    outline segments ``(seg_a, edges, edge_sq, previous, seg_piece)`` whose nearest point
-    is within ``reach_m`` at a segment's interior or at a vertex both sides end at."""
-    b, m = excess.shape
+def touchable(
+    normals, offsets, starts, centre, seg_a, edges, edge_sq, previous, seg_piece, reach_m, out
+):
+    """:func:`synth.pieces.touchable`, into ``out`` ``(b, pieces)``: the first piece whose
+    every edge holds the centre (the centre's excess over each edge's half-plane,
+    ``x * normal_x + y * normal_y - offset``, is at most 0; the pieces' edges from
+    ``starts``), else the owners of the outline segments ``(seg_a, edges, edge_sq,
+    previous, seg_piece)`` whose nearest point is within ``reach_m`` at a segment's interior
+    or at a vertex both sides end at."""
+    b, m = centre.shape[0], normals.shape[0]
     n, s = starts.size, seg_a.shape[0]
     t = np.empty(s)
     for i in range(b):
+        cx, cy = centre[i, 0], centre[i, 1]
         above = False
         for p in range(n):
             end = starts[p + 1] if p + 1 < n else m
-            worst = excess[i, starts[p]]
+            e = starts[p]
+            worst = cx * normals[e, 0] + cy * normals[e, 1] - offsets[e]
             for e in range(starts[p] + 1, end):
-                if excess[i, e] > worst:
-                    worst = excess[i, e]
+                excess = cx * normals[e, 0] + cy * normals[e, 1] - offsets[e]
+                if excess > worst:
+                    worst = excess
             out[i, p] = worst <= 0.0 and not above
             above = above or worst <= 0.0
         if above:
             continue
-        cx, cy = centre[i, 0], centre[i, 1]
         for j in range(s):
             t[j] = ((cx - seg_a[j, 0]) * edges[j, 0] + (cy - seg_a[j, 1]) * edges[j, 1]) / edge_sq[
                 j

@@ -122,10 +122,10 @@ def touchable(outline: Outline, centre: np.ndarray, reach_m: float) -> np.ndarra
     # segment, the foot of the perpendicular at parameter t along it, clamped to it; a
     # segment's interior, or a vertex where both sides end (kernels.touchable, compiled:
     # the closed loop asks every period).
-    excess = centre @ outline.normals.T - outline.offsets
     out = np.zeros((centre.shape[0], outline.n_pieces), dtype=bool)
     kernels.touchable(
-        excess,
+        outline.normals,
+        outline.offsets,
         outline.starts,
         centre,
         outline.seg_a,

@@ -214,10 +214,14 @@ def felt_surface(
     rough = _over_ridge_width(finger, rough, marks)
     grid = np.arange(rough.size) * GRID_M
     shifted = np.empty((offsets.size, rough.size))
+    marked = np.empty(rough.size)
     for row, o, gain in zip(shifted, offsets, gains, strict=True):
-        row[:] = np.interp(grid + o, grid, rough + gain @ marks)
+        kernels.weighted_rows(gain, marks, marked)
+        row[:] = np.interp(grid + o, grid, rough + marked)
     if finger.ridges_in_contact is None:
-        felt = weights @ shifted / weights.sum()
+        felt = np.empty(rough.size)
+        kernels.weighted_rows(weights, shifted, felt)
+        felt /= weights.sum()
     else:
         # Equal weights, summed as a plain mean: a store made with a fixed ridge count
         # regenerates bit for bit.
@@ -232,10 +236,13 @@ def _over_ridge_width(finger: Finger, rough: np.ndarray, marks: np.ndarray) -> n
     width = max(1, round(finger.ridge_width_m / GRID_M))
     if width == 1:
         return rough
-    box = np.ones(width) / width
+    scratch = np.empty(rough.size)
     for row in marks:
-        row[:] = np.convolve(row, box, mode="same")
-    return np.convolve(rough, box, mode="same")
+        kernels.box_mean(row, width, scratch)
+        row[:] = scratch
+    out = np.empty(rough.size)
+    kernels.box_mean(rough, width, out)
+    return out
 
 
 @dataclass(frozen=True)
@@ -280,13 +287,14 @@ def layer_position(
     logarithm) to the next one; clamped to the outermost layers, ``j`` is at most
     ``layers - 2`` (0 with one layer)."""
     load_n = np.asarray(load_n, dtype=float)
+    j, u = np.zeros(load_n.shape, dtype=np.intp), np.zeros(load_n.shape)
     if layers == 1:
-        return np.zeros(load_n.shape, dtype=np.intp), np.zeros(load_n.shape)
-    pos = np.log(np.maximum(load_n, 1e-9) / first_load_n) * (1.0 / math.log(LOAD_RATIO))
-    np.maximum(pos, 0.0, out=pos)  # clamped in place (np.clip's wrapper costs more)
-    np.minimum(pos, layers - 1.0, out=pos)
-    j = np.minimum(pos.astype(np.intp), layers - 2)
-    return j, pos - j
+        return j, u
+    first = np.broadcast_to(np.asarray(first_load_n, dtype=float), load_n.shape)
+    kernels.layer_position(
+        first.ravel(), layers, 1.0 / math.log(LOAD_RATIO), load_n.ravel(), j.ravel(), u.ravel()
+    )
+    return j, u
 
 
 def loaded_surface(
@@ -322,7 +330,7 @@ def loaded_surface(
             mark_angle_rad=mark_angle_rad,
         )
         return LoadedSurface.fixed(surface)
-    loads = force_n * LOAD_RATIO ** np.array(LOAD_LAYERS, dtype=float)
+    loads = force_n * kernels.power(LOAD_RATIO, np.array(LOAD_LAYERS, dtype=float))
     radii = contact_radius_m(finger, loads)
     offsets = ridge_offsets(finger)
     # Every ridge that touches in the widest layer (or the nearest one in a point contact).
@@ -348,6 +356,8 @@ def loaded_surface(
         _shifted(padded[1:], pad, o / GRID_M, r_marks, scratch[: r_marks.shape[0]])
     wavelengths = np.array([c.wavelength_m for c in texture.periodic])
     heights = np.empty((radii.size, grid.size))
+    flat_marks = ridge_marks.reshape(-1, grid.size)  # (ridges * marks, n), a view
+    felt, marked = np.empty(grid.size), np.empty(grid.size)
     for layer, a in zip(heights, radii, strict=True):
         chords = 2.0 * np.sqrt(np.maximum(a * a - offsets**2, 0.0))
         inside = chords > 0
@@ -362,9 +372,10 @@ def loaded_surface(
         if texture.roughness_rms_m > 0:
             scale = math.sqrt(line_average_variance(texture.correlation_length_m, mean_chord))
         gains = mark_gains(chords, wavelengths, mark_angle_rad) * weights[:, None]
-        felt = scale * weights @ ridge_rough
+        kernels.weighted_rows(scale * weights, ridge_rough, felt)
         if gains.size:
-            felt += np.tensordot(gains, ridge_marks, axes=2)
+            kernels.weighted_rows(gains.ravel(), flat_marks, marked)
+            felt += marked
         layer[:] = felt / weights.sum()
     slopes = np.gradient(heights, GRID_M, axis=1)
     return LoadedSurface(start_m - margin, loads, radii, heights, slopes)

@@ -1,6 +1,13 @@
-"""The closed loop's compiled steps (synth.kernels) give the bits of their numpy forms."""
+"""The closed loop's compiled steps (synth.kernels) give the bits of their numpy forms,
+the C library's functions and fixed summation orders; so the simulated data do not depend
+on the CPU's vector instructions."""
 
 from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -120,7 +127,8 @@ def test_the_compiled_state_update_gives_its_numpy_forms_bits():
 
 def _touchable_numpy(outline, centre, reach_m):
     """:func:`synth.pieces.touchable` as numpy expressions."""
-    excess = centre @ outline.normals.T - outline.offsets
+    normals = outline.normals
+    excess = centre[:, 0:1] * normals[:, 0] + centre[:, 1:2] * normals[:, 1] - outline.offsets
     worst = np.maximum.reduceat(excess, outline.starts, axis=1)
     inside = worst <= 0.0
     out = inside & (np.cumsum(inside, axis=1) == 1)
@@ -194,3 +202,176 @@ def test_the_compiled_mechanics_give_their_numpy_forms_bits():
     for g, w in zip(got, want, strict=True):
         assert np.array_equal(g, w)
     assert 0 < found.mean() < 1 and (want[4] > 0).any() and (want[4] == 0).any()
+
+
+@pytest.mark.parametrize(
+    ("ufunc", "libm", "low", "high"),
+    [
+        (kernels.exp, math.exp, -40.0, 5.0),
+        (kernels.log, math.log, 1e-9, 50.0),
+        (kernels.arcsin, math.asin, -1.0, 1.0),
+        (kernels.cbrt, math.cbrt, -10.0, 10.0),
+    ],
+)
+def test_the_math_ufuncs_give_the_c_librarys_bits(ufunc, libm, low, high):
+    """Each ufunc gives, value by value, what Python's ``math`` module (the C library)
+    gives, on arrays of any shape and on scalars."""
+    rng = np.random.default_rng(5)
+    x = rng.uniform(low, high, (40, 25))
+    want = np.array([libm(v) for v in x.ravel()]).reshape(x.shape)
+    assert np.array_equal(ufunc(x), want)
+    assert ufunc(float(x[0, 0])) == want[0, 0]
+
+
+def test_the_power_ufunc_gives_the_c_librarys_bits():
+    rng = np.random.default_rng(6)
+    x, y = rng.uniform(0.0, 3.0, 2000), rng.uniform(-2.0, 3.0, 2000)
+    want = np.array([math.pow(a, b) for a, b in zip(x, y, strict=True)])
+    assert np.array_equal(kernels.power(x, y), want)
+    assert np.array_equal(kernels.power(1.3, y), np.array([math.pow(1.3, b) for b in y]))
+
+
+def test_the_weighted_rows_and_the_box_mean_sum_in_one_order():
+    """``weighted_rows`` adds the rows in order and ``box_mean`` its window's samples in
+    order of their position, to the last bit of the same sums as numpy expressions;
+    both agree with numpy's BLAS-backed products to rounding."""
+    rng = np.random.default_rng(7)
+    for r_count, n in ((1, 5), (3, 400), (12, 1001), (0, 7)):
+        w, rows = rng.normal(size=r_count), rng.normal(size=(r_count, n))
+        out = np.full(n, np.nan)
+        kernels.weighted_rows(w, rows, out)
+        want = np.zeros(n)
+        for r in range(r_count):
+            want = want + w[r] * rows[r]
+        assert np.array_equal(out, want)
+        np.testing.assert_allclose(out, w @ rows, rtol=0, atol=1e-12)
+    for width in (1, 2, 3, 4, 7, 12):
+        for n in (width, 30, 999):
+            x = rng.normal(size=n)
+            out = np.full(n, np.nan)
+            kernels.box_mean(x, width, out)
+            half = (width - 1) // 2
+            padded = np.pad(x, (width - 1 - half, half))
+            want = np.zeros(n)
+            for d in range(width):
+                want = want + padded[d : d + n] * (1.0 / width)
+            assert np.array_equal(out, want), (width, n)
+            same = np.convolve(x, np.ones(width) / width, mode="same")
+            np.testing.assert_allclose(out, same, rtol=0, atol=1e-12)
+
+
+def test_the_compiled_friction_law_and_layer_position_give_their_numpy_forms_bits():
+    rng = np.random.default_rng(8)
+    b = 64
+    slip = np.abs(rng.normal(0.0, 0.01, b))
+    slip[:4] = 0.0
+    normal = rng.uniform(-0.2, 2.5, b)
+    normal[4] = 0.05
+    kinetic, excess = rng.uniform(0.3, 1.0, b), rng.uniform(0.0, 0.5, b)
+    v_stribeck, load_exp = rng.uniform(1e-3, 1e-2, b), rng.uniform(-0.3, 0.0, b)
+    scale = rng.uniform(0.8, 1.2, b)
+    out = np.empty(b)
+    kernels.friction_law(slip, normal, kinetic, excess, v_stribeck, load_exp, scale, out)
+    f = np.maximum(normal, 0.05)
+    weak = kernels.exp(-np.square(slip / v_stribeck))
+    want = (kinetic + excess * weak) * kernels.power(f, load_exp) * scale
+    assert np.array_equal(out, want)
+
+    first = rng.uniform(0.3, 0.8, b)
+    load = np.concatenate([[0.0, 1e-12, 100.0], rng.uniform(0.0, 4.0, b - 3)])
+    ratio = synth.texture.LOAD_RATIO
+    for layers in (2, 3, 7):
+        j, u = synth.texture.layer_position(first, layers, load)
+        pos = kernels.log(np.maximum(load, 1e-9) / first) * (1.0 / math.log(ratio))
+        pos = np.minimum(np.maximum(pos, 0.0), layers - 1.0)
+        want_j = np.minimum(pos.astype(np.intp), layers - 2)
+        assert np.array_equal(j, want_j) and np.array_equal(u, pos - want_j)
+        assert (j >= 0).all() and (j <= layers - 2).all() and (u >= 0).all() and (u <= 1).all()
+    j, u = synth.texture.layer_position(first, 1, load)
+    assert not j.any() and not u.any()
+
+
+_DIGEST = """
+import dataclasses, hashlib, types
+import numpy as np
+import synth
+from shapes import SHAPE_NAMES
+from synth import contact, texture
+from synth.closed_loop import ClosedLoop
+from synth.trial import TrialSpec
+
+h = hashlib.sha256()
+# The data path's array functions on inputs large enough for every vector kernel.
+rng = np.random.default_rng(3)
+n = 20000
+load, slip = rng.uniform(0.0, 3.0, n), rng.uniform(0.0, 0.03, n)
+first = rng.uniform(0.3, 0.8, n)
+law = synth.materials.MATERIALS["wood"].friction
+loop = types.SimpleNamespace(
+    b=n, kinetic=first, static_excess=first * 0.4, v_stribeck=first * 0.01,
+    load_exp=-first * 0.2, scale=1.0 + first * 0.1,
+)
+outline = synth.pieces.outline_pieces("moon")
+for out in (
+    *texture.layer_position(first, 5, load),
+    ClosedLoop.friction(loop, slip, load),
+    contact.friction_coefficient(law, slip, load, 1.1),
+    contact.hertz_indentation_m(load, 0.008, 2e5, 0.49),
+    contact.hertz_force_n(load * 1e-3, 0.008, 2e5, 0.49),
+    contact.surface_deflection_m(slip - 0.015, load * 1e-3, 0.008),
+    contact.surface_slope(slip - 0.015, load * 1e-3, 0.008),
+    synth.pieces.touchable(outline, rng.uniform(-0.012, 0.012, (n, 2)), 0.0025),
+):
+    h.update(np.ascontiguousarray(out).tobytes())
+config = synth.SynthConfig()
+fixed = dataclasses.replace(config, finger=dataclasses.replace(config.finger, ridges_in_contact=3))
+for finger in (config.finger, fixed.finger):
+    for seed in range(4):
+        surface = texture.loaded_surface(
+            synth.materials.MATERIALS["resin"].texture, finger, 0.0, 0.03,
+            np.random.default_rng(seed), force_n=1.0, mark_angle_rad=0.1,
+        )
+        h.update(surface.height_m.tobytes() + surface.slope.tobytes())
+print(h.hexdigest())
+# Whole trials: every shape and material, batches of six.
+h = hashlib.sha256()
+specs = [TrialSpec(s, m, seed=i) for s in SHAPE_NAMES for m in synth.MATERIAL_NAMES for i in (0, 1)]
+for t in synth.simulate_batch(specs, config=config, threads=2):
+    h.update(t.signals.tobytes())
+for t in synth.simulate_batch(specs[:24], config=fixed, threads=1):
+    h.update(t.signals.tobytes())
+print(h.hexdigest())
+"""
+
+
+def _numpy_vector_levels() -> list[str]:
+    """numpy's dispatch targets above its baseline that this CPU has (numpy 2.x names)."""
+    from numpy._core._multiarray_umath import __cpu_features__
+
+    return [f for f in ("X86_V4", "X86_V3") if __cpu_features__.get(f)]
+
+
+def test_the_simulated_signals_do_not_depend_on_the_cpus_vector_instructions():
+    """The data path's array functions (the layer look-up, the friction laws, the contact
+    mechanics, the piece choice, the felt surfaces) and whole trials (every shape and
+    material; a fixed ridge count) give the same bits with numpy's and OpenBLAS's best
+    kernels for this CPU as with the ones a CPU without AVX-512 or AVX2 would run, and
+    with OpenBLAS's generic x86 kernels."""
+    levels = _numpy_vector_levels()
+    if not levels:
+        pytest.skip("this CPU has no vector instructions above numpy's baseline")
+
+    def digest(**env):
+        run = subprocess.run(
+            [sys.executable, "-c", _DIGEST],
+            env={**os.environ, **env},
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        return run.stdout.strip()
+
+    here = digest()
+    assert [len(d) for d in here.split()] == [64, 64]
+    assert digest(NPY_DISABLE_CPU_FEATURES=levels[0]) == here
+    assert digest(NPY_DISABLE_CPU_FEATURES=" ".join(levels), OPENBLAS_CORETYPE="Nehalem") == here
