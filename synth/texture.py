@@ -57,6 +57,7 @@ GRID_M = 5e-6
 #: interpolated ridge weights stay within about 2 % of their total.
 LOAD_RATIO = math.sqrt(2.0)
 LOAD_LAYERS = range(-2, 3)
+_PER_LOG_RATIO = 1.0 / math.log(LOAD_RATIO)  # a load's layer position per unit of its log
 
 
 def contact_radius_m(finger: Finger, force_n):
@@ -292,7 +293,7 @@ def layer_position(
         return j, u
     first = np.broadcast_to(np.asarray(first_load_n, dtype=float), load_n.shape)
     kernels.layer_position(
-        first.ravel(), layers, 1.0 / math.log(LOAD_RATIO), load_n.ravel(), j.ravel(), u.ravel()
+        first.ravel(), layers, _PER_LOG_RATIO, load_n.ravel(), j.ravel(), u.ravel()
     )
     return j, u
 
@@ -521,6 +522,7 @@ class LayeredTable:
         self._corners = np.array([0, 1, n, n + 1])
         self._last = n - 1.000001  # clamp just inside the last interval
         self.layers = m
+        self._j, self._u = np.zeros(b, dtype=np.intp), np.zeros(b)
 
     def __call__(
         self, coordinate_m: np.ndarray, load_n: np.ndarray
@@ -551,7 +553,9 @@ class LayeredTable:
         (positions ``(b,)`` extrapolated over the times ``(k,)`` by their velocities) under
         the loads ``load_n`` ``(b,)``, written into ``height_out`` and ``slope_out`` ``(b,
         k)``: the same bits, compiled (:mod:`synth.kernels`)."""
-        j, u = layer_position(self._first_load, self.layers, load_n)
+        j, u = self._j, self._u  # layer_position's, into the table's own buffers
+        if self.layers > 1:
+            kernels.layer_position(self._first_load, self.layers, _PER_LOG_RATIO, load_n, j, u)
         kernels.layered_felt(
             self._points,
             self._origins,
