@@ -358,9 +358,9 @@ def _numpy_vector_levels() -> list[str]:
 def test_the_simulated_signals_do_not_depend_on_the_cpus_vector_instructions():
     """The data path's array functions (the layer look-up, the friction laws, the contact
     mechanics, the piece choice, the felt surfaces), whole trials (every shape and
-    material; a fixed ridge count) and their 386 features give the same bits with numpy's and OpenBLAS's best
-    kernels for this CPU as with the ones a CPU without AVX-512 or AVX2 would run, and
-    with OpenBLAS's generic x86 kernels."""
+    material; a fixed ridge count) and their 386 features give the same bits with numpy's
+    and OpenBLAS's best kernels for this CPU as with the ones a CPU without AVX-512 or
+    AVX2 would run, and with OpenBLAS's generic x86 kernels."""
     levels = _numpy_vector_levels()
     if not levels:
         pytest.skip("this CPU has no vector instructions above numpy's baseline")
