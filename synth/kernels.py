@@ -19,10 +19,11 @@ ufuncs :data:`exp`, :data:`log`, :data:`power`, :data:`arcsin` and :data:`cbrt`,
 ``math`` calls inside the kernels), never from numpy's own: numpy picks a vectorised
 version of these by the CPU's instructions, and on a CPU with AVX-512 its versions differ
 from the C library's in the last bit of some values, so the same seed would give other
-bits there than on a CPU without it. The C library's functions give the same bits on every
-x86-64 CPU, and they are what numpy itself calls on a CPU without AVX-512. Intel's vector
-math library (SVML), which numba would use where it is installed, is turned off for the
-same reason. Sines and cosines stay in numpy: its versions match the C library's.
+bits there than on a CPU without it. The C library's functions do not follow numpy's
+choice of kernels, and they are what numpy itself calls on a CPU without AVX-512.
+Intel's vector math library (SVML), which numba would use where it is installed, is
+turned off for the same reason. Sines and cosines stay in numpy: its versions match the
+C library's.
 
 ``nogil``: a generation running two chunks on threads steps one chunk's loop while the
 other's holds the interpreter. ``cache``: compiled once per machine, into the package's
