@@ -9,7 +9,7 @@ modulus ``E`` (Poisson ``nu``) pressed on a rigid flat with force ``F`` indents 
 ``delta`` at the contact's rim, decaying as ``a / r``).
 
 All functions are elementwise over numpy arrays. Cube roots, arcsines, exponentials and
-powers come from the C library (:mod:`synth.kernels`), for the same bits on every CPU.
+powers come from the C library (:mod:`synth.kernels`), whatever vector kernels numpy picks.
 """
 
 from __future__ import annotations
