@@ -122,7 +122,8 @@ def weighted_rows(weights, rows, out):
 def box_mean(x, width, out):
     """The moving mean of ``x`` over ``width`` samples, aligned and zero-padded as
     ``np.convolve(x, np.ones(width) / width, mode="same")``; each output sums its terms in
-    one order on every CPU (numpy's convolution sums through the BLAS)."""
+    one order on every CPU (numpy's convolution sums through the BLAS). ``out`` may be
+    ``x`` itself: the sums read a padded copy."""
     n = x.size
     half = (width - 1) // 2
     tap = 1.0 / width

@@ -237,10 +237,8 @@ def _over_ridge_width(finger: Finger, rough: np.ndarray, marks: np.ndarray) -> n
     width = max(1, round(finger.ridge_width_m / GRID_M))
     if width == 1:
         return rough
-    scratch = np.empty(rough.size)
     for row in marks:
-        kernels.box_mean(row, width, scratch)
-        row[:] = scratch
+        kernels.box_mean(row, width, row)
     out = np.empty(rough.size)
     kernels.box_mean(rough, width, out)
     return out
