@@ -26,6 +26,12 @@ source gives; nothing is tuned per shape, material or class.
         the worst edge transient of the perturbation grid (every shape x material at
         1.4 N, 14 mm/s) below 70 % of the DAQ's range; with ``--set``, for the
         configuration whatif would measure.
+    python3 scripts/calibrate.py carrier [--thickness-m T ...]
+        The films' polyester carrier, which the finger's description does not give: for
+        each carrier thickness (default: the thin 23 um stock, 50 um, and the laminated
+        elements' 125 um) the neutral-axis offset and shear coupling it gives the films
+        (:func:`film_on_carrier`), the post-gain ``gain`` sizes for them, and the
+        ``whatif --set`` options that measure that film.
     python3 scripts/calibrate.py sweep [--trials-per-class 20] [--seeds 1]
                                        [--only SECTION.FIELD] [--base SECTION.FIELD=VALUE]
                                        [--out DIR [--resume]]
@@ -107,7 +113,7 @@ import numpy as np
 
 import synth
 from shapes import SHAPE_NAMES
-from shapes.validation import int_arg, parse_number
+from shapes.validation import float_arg, int_arg, parse_number
 from synth.atomic import check_out_dir
 
 #: Not a configuration field: a factor on every material's texture amplitudes (roughness
@@ -402,10 +408,11 @@ def _configured(items: list[str] | None) -> synth.SynthConfig:
     return config
 
 
-def cmd_gain(args: argparse.Namespace) -> int:
+def sized_gain(config: synth.SynthConfig) -> tuple[float, float]:
+    """``(worst PVDF transient per unit post-gain (V), largest round gain that keeps it
+    below 70 % of the DAQ's range)`` for ``config``; SystemExit when no gain fits."""
     from synth.sensors import SaturationError
 
-    config = _configured(args.set)
     # The worst transient per unit post-gain, read through a DAQ of a wide range.
     probe = dataclasses.replace(
         config,
@@ -433,11 +440,69 @@ def cmd_gain(args: argparse.Namespace) -> int:
             f"no post-gain from {ROUND_GAINS[0]:g} up keeps the worst PVDF transient "
             f"({per_gain:.1f} V per unit gain) below {budget:g} V"
         )
-    best = max(fits)
+    return per_gain, max(fits)
+
+
+def cmd_gain(args: argparse.Namespace) -> int:
+    config = _configured(args.set)
+    per_gain, best = sized_gain(config)
     print(f"worst PVDF transient at 1.4 N, 14 mm/s: {per_gain:.2f} V per unit post-gain")
     print(
         f"post_gain = {best:g} (peak {best * per_gain:.1f} V of +-{config.acquisition.range_v} V)"
     )
+    return 0
+
+
+#: Young's modulus of the films' polyester carrier (PET film: 4-5 GPa).
+CARRIER_MODULUS_PA = 4.5e9
+#: Carrier thicknesses ``carrier`` reports by default: the thin polyester stock the
+#: defaults assume, one between, and the laminated elements' (Measurement Specialties,
+#: Piezo Film Sensors Technical Manual: 125 um polyester under 28 um film).
+CARRIER_THICKNESSES_M = (23e-6, 50e-6, 125e-6)
+
+
+def film_on_carrier(
+    pvdf: synth.PVDF,
+    finger: synth.Finger,
+    carrier_thickness_m: float,
+    carrier_modulus_pa: float = CARRIER_MODULUS_PA,
+) -> tuple[float, float]:
+    """``(neutral_axis_offset_m, shear_strain_per_n)`` of a film bonded on a carrier of
+    ``carrier_thickness_m``, as :class:`synth.config.PVDF` derives its defaults.
+
+    The laminate bends about the height where the layers' first moments of ``E t``
+    balance; the film's charge follows the strain at its mid-plane, ``e`` from that
+    axis. Under a tangential traction ``Q`` the skin's in-plane force per unit width at
+    the film's distance ``x`` from the contact is ``(1 + nu) Q / (pi x)`` (Cerruti), and
+    the laminate strains by it over its in-plane stiffness ``sum(E t)``."""
+    film = pvdf.youngs_modulus_pa * pvdf.thickness_m
+    carrier = carrier_modulus_pa * carrier_thickness_m
+    # Heights above the carrier's free face: the carrier's mid-plane, the film's.
+    axis = (
+        carrier * carrier_thickness_m / 2 + film * (carrier_thickness_m + pvdf.thickness_m / 2)
+    ) / (carrier + film)
+    offset = carrier_thickness_m + pvdf.thickness_m / 2 - axis
+    shear = (1 + finger.skin_poisson) / (math.pi * pvdf.offset_m * (film + carrier))
+    return offset, shear
+
+
+def cmd_carrier(args: argparse.Namespace) -> int:
+    base = synth.SynthConfig()
+    for thickness in args.thickness_m or CARRIER_THICKNESSES_M:
+        if not 0 < thickness <= 1e-3:
+            raise SystemExit(f"--thickness-m {thickness:g}: must be in (0, 0.001] m")
+        offset, shear = film_on_carrier(base.pvdf, base.finger, thickness)
+        pvdf = dataclasses.replace(
+            base.pvdf, neutral_axis_offset_m=offset, shear_strain_per_n=shear
+        )
+        _, gain = sized_gain(dataclasses.replace(base, pvdf=pvdf))
+        print(
+            f"carrier {thickness * 1e6:g} um: neutral_axis_offset_m {offset:.3g}, "
+            f"shear_strain_per_n {shear:.3g}, post_gain {gain:g}; measure it with "
+            f"`python3 scripts/calibrate.py whatif --set pvdf.neutral_axis_offset_m={offset:.3g} "
+            f"--set pvdf.shear_strain_per_n={shear:.3g} --set pvdf.post_gain={gain:g}`",
+            flush=True,
+        )
     return 0
 
 
@@ -1101,6 +1166,15 @@ def main(argv: list[str] | None = None) -> int:
     p = sub.add_parser("gain", help="the PVDF post-amplifier gain")
     _add_set_option(p, "size the gain for this configuration, as whatif sets it")
     p.set_defaults(func=cmd_gain)
+    p = sub.add_parser("carrier", help="the films' neutral axis and shear coupling per carrier")
+    p.add_argument(
+        "--thickness-m",
+        action="append",
+        type=float_arg,
+        metavar="T",
+        help="a carrier thickness in metres (repeatable; default 23e-6, 50e-6 and 125e-6)",
+    )
+    p.set_defaults(func=cmd_carrier)
     sub.add_parser(
         "update", help="the surface update period against a 1 ms update (not a calibration)"
     ).set_defaults(func=cmd_update)
