@@ -30,8 +30,8 @@ source gives; nothing is tuned per shape, material or class.
         The films' polyester carrier, which the finger's description does not give: for
         each carrier thickness (default: the thin 23 um stock, 50 um, and the laminated
         elements' 125 um) the neutral-axis offset and shear coupling it gives the films
-        (:func:`film_on_carrier`), the post-gain ``gain`` sizes for them, and the
-        ``whatif --set`` options that measure that film.
+        (:func:`synth.sensors.film_on_carrier`), the post-gain ``gain`` sizes for them,
+        and the ``whatif --set`` options that measure that film.
     python3 scripts/calibrate.py sweep [--trials-per-class 20] [--seeds 1]
                                        [--only SECTION.FIELD] [--base SECTION.FIELD=VALUE]
                                        [--out DIR [--resume]]
@@ -115,6 +115,7 @@ import synth
 from shapes import SHAPE_NAMES
 from shapes.validation import float_arg, int_arg, parse_number
 from synth.atomic import check_out_dir
+from synth.sensors import film_on_carrier
 
 #: Not a configuration field: a factor on every material's texture amplitudes (roughness
 #: and periodic marks), swept to see how much of the materials' signature the texture
@@ -461,37 +462,12 @@ CARRIER_MODULUS_PA = 4.5e9
 CARRIER_THICKNESSES_M = (23e-6, 50e-6, 125e-6)
 
 
-def film_on_carrier(
-    pvdf: synth.PVDF,
-    finger: synth.Finger,
-    carrier_thickness_m: float,
-    carrier_modulus_pa: float = CARRIER_MODULUS_PA,
-) -> tuple[float, float]:
-    """``(neutral_axis_offset_m, shear_strain_per_n)`` of a film bonded on a carrier of
-    ``carrier_thickness_m``, as :class:`synth.config.PVDF` derives its defaults.
-
-    The laminate bends about the height where the layers' first moments of ``E t``
-    balance; the film's charge follows the strain at its mid-plane, ``e`` from that
-    axis. Under a tangential traction ``Q`` the skin's in-plane force per unit width at
-    the film's distance ``x`` from the contact is ``(1 + nu) Q / (pi x)`` (Cerruti), and
-    the laminate strains by it over its in-plane stiffness ``sum(E t)``."""
-    film = pvdf.youngs_modulus_pa * pvdf.thickness_m
-    carrier = carrier_modulus_pa * carrier_thickness_m
-    # Heights above the carrier's free face: the carrier's mid-plane, the film's.
-    axis = (
-        carrier * carrier_thickness_m / 2 + film * (carrier_thickness_m + pvdf.thickness_m / 2)
-    ) / (carrier + film)
-    offset = carrier_thickness_m + pvdf.thickness_m / 2 - axis
-    shear = (1 + finger.skin_poisson) / (math.pi * pvdf.offset_m * (film + carrier))
-    return offset, shear
-
-
 def cmd_carrier(args: argparse.Namespace) -> int:
     base = synth.SynthConfig()
     for thickness in args.thickness_m or CARRIER_THICKNESSES_M:
         if not 0 < thickness <= 1e-3:
             raise SystemExit(f"--thickness-m {thickness:g}: must be in (0, 0.001] m")
-        offset, shear = film_on_carrier(base.pvdf, base.finger, thickness)
+        offset, shear = film_on_carrier(base.pvdf, base.finger, thickness, CARRIER_MODULUS_PA)
         pvdf = dataclasses.replace(
             base.pvdf, neutral_axis_offset_m=offset, shear_strain_per_n=shear
         )

@@ -103,6 +103,29 @@ def film_strains(mech: Mechanics, finger: Finger, pvdf: PVDF) -> np.ndarray:
     return np.stack(out, axis=1)
 
 
+def film_on_carrier(
+    pvdf: PVDF, finger: Finger, carrier_thickness_m: float, carrier_modulus_pa: float
+) -> tuple[float, float]:
+    """``(neutral_axis_offset_m, shear_strain_per_n)`` of ``pvdf``'s film bonded on a
+    carrier of ``carrier_thickness_m`` and ``carrier_modulus_pa``: the derivation of
+    :class:`synth.config.PVDF`'s two defaults (rounded from a 23 um polyester carrier).
+
+    The laminate bends about the height where the layers' first moments of ``E t``
+    balance; the film's charge follows the strain at its mid-plane, ``e`` from that
+    axis. Under a tangential traction ``Q`` the skin's in-plane force per unit width at
+    the film's distance ``x`` from the contact is ``(1 + nu) Q / (pi x)`` (Cerruti), and
+    the laminate strains by it over its in-plane stiffness ``sum(E t)``."""
+    film = pvdf.youngs_modulus_pa * pvdf.thickness_m
+    carrier = carrier_modulus_pa * carrier_thickness_m
+    # Heights above the carrier's free face: the carrier's mid-plane, the film's.
+    axis = (
+        carrier * carrier_thickness_m / 2 + film * (carrier_thickness_m + pvdf.thickness_m / 2)
+    ) / (carrier + film)
+    offset = carrier_thickness_m + pvdf.thickness_m / 2 - axis
+    shear = (1 + finger.skin_poisson) / (math.pi * pvdf.offset_m * (film + carrier))
+    return offset, shear
+
+
 def pvdf_volts(strain: np.ndarray, pvdf: PVDF, fs_hz: float) -> np.ndarray:
     """Charge ``d31 E strain A`` into a charge amplifier: ``-q / C_f`` above the high-pass
     corner of its feedback ``R_f C_f`` (first order: below the corner the output follows

@@ -14,7 +14,7 @@ import pytest
 
 import synth
 from models.features import FEATURE_NAMES
-from synth import contact
+from synth import contact, sensors
 from tests.synthetic_data import make_dataset
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -201,26 +201,6 @@ def test_gain_sizes_the_default_post_gain_and_any_configurations(capsys):
         calibrate.main(argv)
 
 
-def test_the_films_carrier_gives_the_defaults_coupling_and_the_laminates():
-    """The derivation reproduces the defaults' neutral axis and shear coupling from the
-    thin 23 um carrier (they are rounded from it) and the laminated elements' 67 um axis;
-    a thicker carrier moves the axis away from the film and stiffens the laminate, so
-    bending grows and the shear coupling falls."""
-    calibrate = _calibrate_module()
-    config = synth.SynthConfig()
-    offset, shear = calibrate.film_on_carrier(config.pvdf, config.finger, 23e-6)
-    assert offset == pytest.approx(config.pvdf.neutral_axis_offset_m, rel=0.02)
-    assert shear == pytest.approx(config.pvdf.shear_strain_per_n, rel=0.02)
-    laminate = calibrate.film_on_carrier(config.pvdf, config.finger, 125e-6)
-    assert laminate == pytest.approx((66.6e-6, 1.83e-4), rel=0.01)
-    offsets, shears = zip(
-        *(calibrate.film_on_carrier(config.pvdf, config.finger, t) for t in (10e-6, 50e-6, 1e-4)),
-        strict=True,
-    )
-    assert offsets[0] < offset < offsets[1] < offsets[2] < laminate[0]
-    assert shears[0] > shear > shears[1] > shears[2] > laminate[1]
-
-
 def test_carrier_prints_each_films_settings_and_refuses_a_bad_thickness(monkeypatch, capsys):
     calibrate = _calibrate_module()
     sized = []
@@ -232,7 +212,9 @@ def test_carrier_prints_each_films_settings_and_refuses_a_bad_thickness(monkeypa
     monkeypatch.setattr(calibrate, "sized_gain", sized_gain)
     assert calibrate.main(["carrier", "--thickness-m", "50e-6"]) == 0
     out = capsys.readouterr().out
-    offset, shear = calibrate.film_on_carrier(sized[0], synth.SynthConfig().finger, 50e-6)
+    offset, shear = sensors.film_on_carrier(
+        sized[0], synth.SynthConfig().finger, 50e-6, calibrate.CARRIER_MODULUS_PA
+    )
     assert (sized[0].neutral_axis_offset_m, sized[0].shear_strain_per_n) == (offset, shear)
     assert out.startswith("carrier 50 um: neutral_axis_offset_m 2.84e-05, shear_strain_per_n")
     assert f"--set pvdf.shear_strain_per_n={shear:.3g} --set pvdf.post_gain=2`" in out

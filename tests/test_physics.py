@@ -374,24 +374,23 @@ def test_pvdf_film_capacitance_comes_from_its_geometry():
     assert per_cm2 == pytest.approx(380e-12, rel=0.05)
 
 
-def _bilayer_offset_m(film_t, film_e, carrier_t, carrier_e):
-    """Distance from a film's mid-plane to the neutral axis of the film on its carrier."""
-    carrier, film = carrier_e * carrier_t, film_e * film_t  # in-plane stiffness, E t
-    axis = (carrier * carrier_t / 2 + film * (carrier_t + film_t / 2)) / (carrier + film)
-    return carrier_t + film_t / 2 - axis
-
-
 def test_the_films_neutral_axis_offset_is_its_carriers():
-    """The default offset is 28 um PVDF on 23 um polyester; a 125 um laminate gives ~67 um."""
-    pv = NOMINAL.pvdf
+    """The default offset is 28 um PVDF on 23 um polyester; a 125 um laminate gives ~67 um;
+    a thicker carrier moves the axis away from the film."""
+    pv, finger = NOMINAL.pvdf, NOMINAL.finger
     for polyester_pa in (4.0e9, 4.5e9, 5.0e9):
-        thin = _bilayer_offset_m(pv.thickness_m, pv.youngs_modulus_pa, 23e-6, polyester_pa)
+        thin, _ = sensors.film_on_carrier(pv, finger, 23e-6, polyester_pa)
         assert thin == pytest.approx(pv.neutral_axis_offset_m, rel=0.08), polyester_pa
-    laminate = _bilayer_offset_m(pv.thickness_m, pv.youngs_modulus_pa, 125e-6, 4.5e9)
+    thin, _ = sensors.film_on_carrier(pv, finger, 23e-6, 4.5e9)
+    assert thin == pytest.approx(pv.neutral_axis_offset_m, rel=0.02)
+    laminate, _ = sensors.film_on_carrier(pv, finger, 125e-6, 4.5e9)
     assert laminate == pytest.approx(67e-6, rel=0.03)
-    assert _bilayer_offset_m(pv.thickness_m, 3e9, pv.thickness_m, 3e9) == pytest.approx(
-        pv.thickness_m / 2
-    )
+    assert laminate == pytest.approx(66.6e-6, rel=0.01)
+    itself = dataclasses.replace(pv, youngs_modulus_pa=3e9)
+    offset, _ = sensors.film_on_carrier(itself, finger, pv.thickness_m, 3e9)
+    assert offset == pytest.approx(pv.thickness_m / 2)
+    offsets = [sensors.film_on_carrier(pv, finger, t, 4.5e9)[0] for t in (10e-6, 50e-6, 1e-4)]
+    assert offsets[0] < thin < offsets[1] < offsets[2] < laminate
 
 
 def test_a_film_bending_about_its_own_mid_plane_gives_no_charge():
@@ -471,12 +470,21 @@ def test_the_traction_shortens_the_front_film_and_stretches_the_rear_one():
 
 def test_the_films_shear_coupling_is_the_cerruti_load_over_their_stiffness():
     """(1 + nu) / (pi x sum(E t)) for the skin's Poisson ratio, the film's distance from
-    the contact, and the film on its 23 um polyester carrier (4-5 GPa)."""
-    pv, nu = FLAT.pvdf, FLAT.finger.skin_poisson
+    the contact, and the film on its 23 um polyester carrier (4-5 GPa); a thicker
+    carrier stiffens the laminate and lowers it (1.83e-4 per newton on 125 um)."""
+    pv, finger = FLAT.pvdf, FLAT.finger
     for polyester_pa in (4.0e9, 4.5e9, 5.0e9):
         stiffness = pv.youngs_modulus_pa * pv.thickness_m + polyester_pa * 23e-6
-        derived = (1 + nu) / (math.pi * pv.offset_m * stiffness)
+        derived = (1 + finger.skin_poisson) / (math.pi * pv.offset_m * stiffness)
         assert pv.shear_strain_per_n == pytest.approx(derived, rel=0.07), polyester_pa
+        _, shear = sensors.film_on_carrier(pv, finger, 23e-6, polyester_pa)
+        assert shear == pytest.approx(derived, rel=1e-12), polyester_pa
+    _, thin = sensors.film_on_carrier(pv, finger, 23e-6, 4.5e9)
+    assert thin == pytest.approx(pv.shear_strain_per_n, rel=0.02)
+    _, laminate = sensors.film_on_carrier(pv, finger, 125e-6, 4.5e9)
+    assert laminate == pytest.approx(1.83e-4, rel=0.01)
+    shears = [sensors.film_on_carrier(pv, finger, t, 4.5e9)[1] for t in (10e-6, 50e-6, 1e-4)]
+    assert shears[0] > thin > shears[1] > shears[2] > laminate
 
 
 def test_same_seed_is_bit_identical_whatever_the_batch():
