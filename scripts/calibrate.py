@@ -28,29 +28,32 @@ source gives; nothing is tuned per shape, material or class.
         configuration whatif would measure.
     python3 scripts/calibrate.py carrier [--thickness-m T ...]
         The films' polyester carrier, which the finger's description does not give: for
-        each carrier thickness (default: the thin 23 um stock, 50 um, and the laminated
-        elements' 125 um) the neutral-axis offset and shear coupling it gives the films
-        (:func:`synth.sensors.film_on_carrier`), the post-gain ``gain`` sizes for them,
-        and the ``whatif --set`` options that measure that film.
+        each carrier thickness (default: the standard polyester stocks from 23 um to the
+        laminated elements' 125 um; the defaults assume 36 um) the neutral-axis offset
+        and shear coupling it gives the films (:func:`synth.sensors.film_on_carrier`),
+        the post-gain ``gain`` sizes for them, and the ``whatif --set`` options that
+        measure that film.
     python3 scripts/calibrate.py sweep [--trials-per-class 20] [--seeds 1]
                                        [--only SECTION.FIELD] [--base SECTION.FIELD=VALUE]
-                                       [--out DIR [--resume]]
+                                       [--set SECTION.FIELD=VALUE] [--out DIR [--resume]]
         Each global parameter of SWEEP over its cited range (one at a time, the others at
         their defaults, or at the values ``--base`` sets, each within its parameter's cited
-        range, to see how two parameters act together): generates the paper grid, runs the
-        leave-one-out diagnosis and AFOP-ML's feature selection on the generalisation
-        protocols' training splits, and prints (and writes DIR/calibration.md and .json) the
-        numbers the defaults were chosen by: strain-gauge shape accuracy (target >= 0.95,
-        every shape >= 0.85), material accuracy per channel group, and the PVDF share of the
-        selected features and the median D on cross-shape and cross-material training splits
-        (the paper's real finger: 21 % and 50 %, D about 6 and 12). Only training splits are
-        used: no test accuracy enters. With ``--seeds N`` every candidate is generated from
-        N dataset seeds (0..N-1); the figures are their means, and the table adds the
-        shares' standard deviation over the seeds and their difference ``pvdf_share_gap``
-        (cross-shape minus cross-material, negative on the real finger), since one dataset's
-        shares move by several points with its seed. The paper's shares are of its own D,
-        so the table also gives the share of each split's first 6 (cross-shape) and 12
-        (cross-material) ranked features and their gap (``pvdf_share_paper_d_*``).
+        range, to see how two parameters act together; ``--set`` changes any numeric field
+        of the configuration the sweep starts from, as whatif's does): generates the paper
+        grid, runs the leave-one-out diagnosis and AFOP-ML's feature selection on the
+        generalisation protocols' training splits, and prints (and writes DIR/calibration.md
+        and .json) the numbers the defaults were chosen by: strain-gauge shape accuracy
+        (target >= 0.95, every shape >= 0.85), material accuracy per channel group, and the
+        PVDF share of the selected features and the median D on cross-shape and
+        cross-material training splits (the paper's real finger: 21 % and 50 %, D about 6
+        and 12). Only training splits are used: no test accuracy enters. With ``--seeds N``
+        every candidate is generated from N dataset seeds (0..N-1); the figures are their
+        means, and the table adds the shares' standard deviation over the seeds and their
+        difference ``pvdf_share_gap`` (cross-shape minus cross-material, negative on the
+        real finger), since one dataset's shares move by several points with its seed. The
+        paper's shares are of its own D, so the table also gives the share of each split's
+        first 6 (cross-shape) and 12 (cross-material) ranked features and their gap
+        (``pvdf_share_paper_d_*``).
         DIR's tables are rewritten after every candidate, so an interrupted sweep keeps
         the rows it measured; ``--resume`` reuses the rows of DIR's table measured with
         the same trials per class, seeds and configuration, and measures the rest.
@@ -173,9 +176,9 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
     (
         "pvdf",
         "shear_strain_per_n",
-        (4.2e-4, 6.3e-4, 9.5e-4),
-        "the films' shear coupling: the depth the skin carries the traction over, known to "
-        "within a factor of 1.5",
+        (3.2e-4, 4.82e-4, 7.2e-4),
+        "the films' shear coupling on their 36 um carrier: the depth the skin carries the "
+        "traction over, known to within a factor of 1.5",
     ),
     (
         "finger",
@@ -456,10 +459,12 @@ def cmd_gain(args: argparse.Namespace) -> int:
 
 #: Young's modulus of the films' polyester carrier (PET film: 4-5 GPa).
 CARRIER_MODULUS_PA = 4.5e9
-#: Carrier thicknesses ``carrier`` reports by default: the thin polyester stock the
-#: defaults assume, one between, and the laminated elements' (Measurement Specialties,
-#: Piezo Film Sensors Technical Manual: 125 um polyester under 28 um film).
-CARRIER_THICKNESSES_M = (23e-6, 50e-6, 125e-6)
+#: Carrier thicknesses ``carrier`` reports by default: the standard polyester film
+#: stocks, from the thinnest to the laminated elements' (Measurement Specialties, Piezo
+#: Film Sensors Technical Manual: 125 um polyester under 28 um film). The defaults
+#: assume 36 um, the thinnest on which the films carry more of the material than of the
+#: shape information (docs/simulator.md).
+CARRIER_THICKNESSES_M = (23e-6, 36e-6, 50e-6, 75e-6, 125e-6)
 
 
 def cmd_carrier(args: argparse.Namespace) -> int:
@@ -851,7 +856,7 @@ def _parse_base(items: list[str] | None) -> dict[tuple[str, str], float]:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    base = synth.SynthConfig()
+    base = _configured(args.set)
     known = {f"{section}.{field}" for section, field, _, _ in SWEEP}
     for name in args.only or ():
         if name not in known:
@@ -1148,7 +1153,7 @@ def main(argv: list[str] | None = None) -> int:
         action="append",
         type=float_arg,
         metavar="T",
-        help="a carrier thickness in metres (repeatable; default 23e-6, 50e-6 and 125e-6)",
+        help="a carrier thickness in metres (repeatable; default the stocks from 23e-6 to 125e-6)",
     )
     p.set_defaults(func=cmd_carrier)
     sub.add_parser(
@@ -1170,6 +1175,9 @@ def main(argv: list[str] | None = None) -> int:
         action="append",
         metavar="SECTION.FIELD=VALUE",
         help="hold a swept parameter at this value and sweep the others (repeatable)",
+    )
+    _add_set_option(
+        p, "start from the defaults with this numeric field changed, as whatif's --set does"
     )
     p.add_argument(
         "--out", help="write calibration.md and calibration.json here (after every candidate)"

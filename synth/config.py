@@ -353,26 +353,27 @@ class PVDF:
     #: Distance from the film's mid-plane to the bending neutral axis. A homogeneous film
     #: bending alone has 0: its two halves stretch and shorten alike and their charges
     #: cancel. A film on a carrier puts the axis where the layers' first moments of
-    #: ``E t`` balance; the axis lies at the film's bonded face, ``e = t / 2 = 14 um``,
-    #: when the carrier's ``E t^2`` equals the film's, as for the 23 um polyester stock
-    #: (4-5 GPa) under 28 um PVDF. The manual's laminated elements (125 um polyester)
-    #: give about 67 um. The finger's description does not give the films' carrier;
-    #: the default takes the thin polyester one.
-    neutral_axis_offset_m: float = 14e-6
+    #: ``E t`` balance: 28 um PVDF gives 14 um (the film's bonded face) on the 23 um
+    #: polyester stock (4-5 GPa), 21 um on the 36 um stock and about 67 um on the
+    #: manual's laminated elements (125 um). The finger's description does not give the
+    #: films' carrier; the default takes the thinnest standard polyester stock on which
+    #: the films carry more of the material than of the shape information
+    #: (``scripts/calibrate.py carrier``, docs/simulator.md): 36 um.
+    neutral_axis_offset_m: float = 21.1e-6
     #: In-plane strain of a film per newton of tangential traction on the skin. A
     #: tangential point load ``Q`` on an elastic half-space (Cerruti; Johnson, *Contact
     #: Mechanics*, 1985, ch. 3) moves the surface along the load by
     #: ``(1 + nu) Q / (pi E x)`` at a distance ``x`` on its line: the skin's surface
     #: strain there is ``(1 + nu) Q / (pi E x^2)``, 10 % per newton at the film's 4 mm
-    #: (``Finger.skin_modulus_pa``). The film with its carrier is some 160 times stiffer
+    #: (``Finger.skin_modulus_pa``). The film with its carrier is some 200 times stiffer
     #: in-plane than the skin it is bonded in, which carries that strain over a depth of
     #: the order of ``x``; the film takes the skin's in-plane force instead,
     #: ``(1 + nu) Q / (pi x)`` per unit width, and strains by that over its in-plane
-    #: stiffness ``E t`` plus its carrier's (28 um PVDF at 3 GPa, 23 um polyester at
-    #: 4.5 GPa: 188 kN/m): ``(1 + nu) / (pi x sum(E t))`` = 6.3e-4 per newton. The
+    #: stiffness ``E t`` plus its carrier's (28 um PVDF at 3 GPa, 36 um polyester at
+    #: 4.5 GPa: 246 kN/m): ``(1 + nu) / (pi x sum(E t))`` = 4.8e-4 per newton. The
     #: depth the skin carries the load over is known only to within a factor of about
     #: 1.5 (the distance to the film, 4 mm, to its length, 5 mm, and below).
-    shear_strain_per_n: float = 6.3e-4
+    shear_strain_per_n: float = 4.82e-4
     #: Electrode length (along the sliding direction) and width: a strip that fits on the
     #: pad's front / rear flank.
     length_m: float = 5.0e-3
@@ -386,7 +387,7 @@ class PVDF:
     feedback_resistance_ohm: float = 100e6
     #: Voltage gain after the charge amplifier, sized so the sharpest edge transients of
     #: the perturbation grid stay inside the DAQ's +-10 V (``scripts/calibrate.py gain``).
-    post_gain: float = 2.0
+    post_gain: float = 1.0
     #: Input voltage noise density of the charge amplifier's op-amp (JFET-input, ~10 nV/
     #: sqrt(Hz)); the film's capacitance raises its noise gain to 1 + C_film / C_f.
     amplifier_noise_v_per_sqrt_hz: float = 10e-9

@@ -96,6 +96,25 @@ def test_a_held_parameter_is_set_in_every_candidate_and_not_swept(tmp_path, monk
     ]
 
 
+def test_set_moves_the_configuration_the_sweep_starts_from(tmp_path, monkeypatch):
+    calibrate = _calibrate_module()
+    seen = []
+
+    def evaluate(config, trials_per_class, where, seed):
+        seen.append((config.pvdf.post_gain, config.variability.yaw_rad))
+        return _fake_metrics(config)
+
+    monkeypatch.setattr(calibrate, "_evaluate", evaluate)
+    argv = ["sweep", "--set", "pvdf.post_gain=2", "--set", "variability.yaw_rad=0.01"]
+    argv += ["--only", "variability.yaw_rad", "--out", str(tmp_path)]
+    assert calibrate.main(argv) == 0
+    rows = json.loads((tmp_path / "calibration.json").read_text())
+    assert [r["default"] for r in rows] == [False, False, True, False]
+    assert sorted(set(seen)) == [(2.0, 0.0), (2.0, 0.005), (2.0, 0.01), (2.0, 0.02)]
+    with pytest.raises(SystemExit, match=r"^--set must be SECTION.FIELD=VALUE"):
+        calibrate.main(["sweep", "--set", "pvdf.no_such_field=1"])
+
+
 def _fake_metrics(config) -> dict:
     yaw = config.variability.yaw_rad
     return {
@@ -270,11 +289,13 @@ def test_whatif_evaluates_the_set_configuration_over_every_seed(monkeypatch, cap
     monkeypatch.setattr(calibrate, "_closed_set_row", closed_set)
     argv = ["whatif", "--set", "pvdf.amplifier_noise_v_per_sqrt_hz=5.6e-4"]
     argv += ["--set", "acquisition.adc_bits=14", "--set", "materials.texture_scale=0.5"]
+    argv += ["--set", "pvdf.post_gain=2"]
     assert calibrate.main([*argv, "--seeds", "2", "--trials-per-class", "4"]) == 0
     assert [(t, s) for _, t, s in seen] == [(4, 0), (4, 1)]
     config = seen[0][0]
     assert config.pvdf.amplifier_noise_v_per_sqrt_hz == 5.6e-4
     assert config.acquisition.adc_bits == 14 and isinstance(config.acquisition.adc_bits, int)
+    assert config.pvdf.post_gain == 2
     resin = synth.SynthConfig().materials["resin"].texture
     assert config.materials["resin"].texture.roughness_rms_m == resin.roughness_rms_m * 0.5
     assert not closed  # only with --closed-set
