@@ -26,9 +26,11 @@ result does not depend on the batch it runs in.
 
 from __future__ import annotations
 
+import contextlib
 import math
+import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
 import mujoco
@@ -97,6 +99,40 @@ def force_loop_gain_m_per_n_s(config: SynthConfig, force_n: float) -> float:
     """
     k_series = series_stiffness_n_m(config, force_n)
     return 2 * math.pi * config.motion.force_loop_bandwidth_hz / k_series
+
+
+_timers_lock = threading.Lock()
+_timers_users = 0
+_timers_saved = None
+
+
+@contextlib.contextmanager
+def timers_off() -> Iterator[None]:
+    """Run MuJoCo without its profiling timers: while any caller is inside, MuJoCo's
+    ``mjcb_time`` callback is a clock that reads 0 (:func:`synth.kernels.no_time`).
+
+    MuJoCo reads that clock at the start and end of every stage of every step to fill
+    ``mjData.timer``; the steady clock MuJoCo's Python bindings install there costs
+    about a tenth of the physics' time on a virtual machine, and nothing in the package
+    reads the timers. The callback is process-wide, so nested and concurrent callers
+    (a generation's chunks on threads) share one switch; the last one out puts the
+    previous callback back (none, if it was the bindings' own clock, which they install
+    again with the next ``MjData``). The physics does not depend on the timers.
+    """
+    global _timers_users, _timers_saved
+    with _timers_lock:
+        if _timers_users == 0:
+            _timers_saved = mujoco.get_mjcb_time()
+            mujoco.set_mjcb_time(kernels.no_time.ctypes)
+        _timers_users += 1
+    try:
+        yield
+    finally:
+        with _timers_lock:
+            _timers_users -= 1
+            if _timers_users == 0:
+                mujoco.set_mjcb_time(_timers_saved)
+                _timers_saved = None
 
 
 #: Where each trial's MuJoCo clock starts (``_initial_states``), in seconds. MuJoCo resets
@@ -186,7 +222,19 @@ class ClosedLoop:
         ``warned_`` the names of the warnings MuJoCo counted (of the last trial on each
         data). ``rollout_s_`` holds the wall seconds spent inside MuJoCo's rollout calls
         (the rest of the run's time is its set-up and the controller's and the surface's
-        work between periods), for profiling."""
+        work between periods), for profiling. MuJoCo runs without its profiling timers
+        (:func:`timers_off`)."""
+        with timers_off():
+            return self._run(datas, initial_state, steps, nthread, record_qpos)
+
+    def _run(
+        self,
+        datas: Sequence[mujoco.MjData],
+        initial_state: np.ndarray,
+        steps: int,
+        nthread: int,
+        record_qpos: bool,
+    ) -> tuple[np.ndarray, np.ndarray]:
         cfg = self.config
         mot = cfg.motion
         dt, k = mot.timestep_s, mot.surface_steps
@@ -198,11 +246,12 @@ class ClosedLoop:
         b, base = self.b, self.models[0]
         nstate, nsens = initial_state.shape[1], base.nsensordata
         lay, cols = self.layout, self.cols
-        # Rollout writes each period's sensors straight into its contiguous block of a
-        # period-major buffer; the outputs are turned trial-major, (b, steps, ...), once
-        # at the end.
-        sens_out = np.empty((nseg, b, k, nsens))
-        height_out = np.empty((nseg, b, k))
+        # Rollout writes each period's sensors into a small buffer that stays in the
+        # cache; they are copied from there into the trial-major outputs, (b, steps, ...).
+        sens_out = np.empty((b, nseg, k, nsens))
+        height_out = np.empty((b, nseg, k))
+        sens = np.empty((b, k, nsens))
+        h = np.empty((b, k))
         control = np.zeros((b, k, lay["size"].stop))
         state_buf = np.empty((b, k, nstate))
         qpos_out = np.empty((b, nseg, k, self.nq)) if record_qpos else None
@@ -265,15 +314,15 @@ class ClosedLoop:
             # Texture under the contact, extrapolated over the period, as felt by the
             # ridges inside the contact the simulated load makes; the specimen's heights
             # go straight to the output.
-            h = height_out[g]
             self.texture.felt_into(s_now, v_now, ahead, normal, h, slope)
+            height_out[:, g] = h
             kernels.controls(
                 h, slope, normal, xy_seg[:, g], self.z_ref, direction, lever, mx, mz, control
             )
-            sens = sens_out[g]
             t0 = time.perf_counter()
             runner.rollout(self.models, datas, k, spec, state, warm, control, state_buf, sens, None)
             self.rollout_s_ += time.perf_counter() - t0
+            sens_out[:, g] = sens
             if qpos_out is not None:
                 qpos_out[:, g] = state_buf[:, :, 1 : 1 + self.nq]
             # A trial went unstable: the caller reports it; the rest is not needed. The
@@ -300,12 +349,12 @@ class ClosedLoop:
             if was_reset or any(w.any() for w in warnings):
                 self.unstable_ = np.flatnonzero(reset)
                 self.warned_ = _warning_names(datas)
-                return _trial_major(sens_out), _trial_major(height_out)
+                break
             if self.pieces is not None:
                 self.pieces.update(sens[:, k - 1, c_pad])
         if qpos_out is not None:
             self.qpos_ = qpos_out.reshape(b, steps, self.nq)
-        return _trial_major(sens_out), _trial_major(height_out)
+        return sens_out.reshape(b, steps, nsens), height_out.reshape(b, steps)
 
 
 def _warning_names(datas: Sequence[mujoco.MjData]) -> tuple[str, ...]:
@@ -323,9 +372,3 @@ def _extend(ref: np.ndarray, n: int) -> np.ndarray:
         return ref
     step = ref[-1] - ref[-2]
     return np.concatenate([ref, ref[-1] + step * np.arange(1, extra + 1)])
-
-
-def _trial_major(periods: np.ndarray) -> np.ndarray:
-    """``(periods, b, k, ...)`` -> contiguous ``(b, periods * k, ...)``."""
-    t = np.moveaxis(periods, 1, 0)
-    return np.ascontiguousarray(t).reshape(t.shape[0], t.shape[1] * t.shape[2], *t.shape[3:])

@@ -48,6 +48,16 @@ if numba.config.USING_SVML:  # numba was imported earlier with SVML enabled
     )
 
 
+@numba.cfunc("float64()", cache=True)
+def no_time():
+    """A clock that always reads 0, for MuJoCo's ``mjcb_time`` callback: MuJoCo's engine
+    reads that clock at the start and end of every stage of a step to fill
+    ``mjData.timer``, and MuJoCo's Python bindings install a steady clock there. Nothing
+    in the package reads the timers; :func:`synth.closed_loop.timers_off` installs this
+    one while it simulates."""
+    return 0.0
+
+
 @numba.vectorize(["float64(float64)"], cache=True, nopython=True)
 def exp(x):
     """``e**x`` from the C library (a ufunc, for numpy's ``np.exp``)."""
@@ -116,6 +126,72 @@ def weighted_rows(weights, rows, out):
         w = weights[r]
         for n in range(out.size):
             out[n] += w * rows[r, n]
+
+
+@numba.njit(cache=True, nogil=True)
+def felt_layers(profiles, whole, frac, rough_weights, mark_weights, totals, dx, heights, slopes):
+    """A loaded surface's layers (:func:`synth.texture.loaded_surface`) in one pass over
+    the grid, without a copy of the profiles per ridge.
+
+    ``profiles`` ``(1 + k, n)``: the roughness and the ``k`` periodic marks on the grid.
+    Ridge ``r`` reads each profile ``whole[r] + frac[r]`` cells further on, by linear
+    interpolation (``p[i] * (1 - frac) + p[i + 1] * frac``, the end values beyond the
+    ends). Layer ``j``'s height is ``(sum over r of rough_weights[j, r] * roughness_r +
+    sum over r, m of mark_weights[j, r * k + m] * mark_rm) / totals[j]``, each sum taken
+    in that order and the second added to the first, and its slope
+    ``np.gradient(height, dx)``: the bits of the ridge-by-ridge numpy form (shifted
+    copies, :func:`weighted_rows`, ``np.gradient``), which ``tests/test_kernels.py``
+    keeps as the reference."""
+    n = profiles.shape[1]
+    k = profiles.shape[0] - 1
+    layers, ridges = rough_weights.shape
+    # Row by row, so that the inner loops run over the grid (vectorised): a ridge's
+    # shifted profile, then its weighted term added into every layer's sum.
+    acc_rough = np.zeros((layers, n))
+    acc_marks = np.zeros((layers, n))
+    shifted = np.empty(n)
+    for r in range(ridges):
+        d = whole[r]
+        f = frac[r]
+        g = 1.0 - f
+        first = min(max(-d, 0), n)  # grid points whose two neighbours lie inside
+        stop = max(min(n - 1 - d, n), first)
+        for p in range(1 + k):
+            row = profiles[p]
+            for i in range(first):
+                lo = min(max(i + d, 0), n - 1)
+                hi = min(max(i + d + 1, 0), n - 1)
+                shifted[i] = row[lo] * g + row[hi] * f
+            for i in range(first, stop):
+                shifted[i] = row[i + d] * g + row[i + d + 1] * f
+            for i in range(stop, n):
+                lo = min(max(i + d, 0), n - 1)
+                hi = min(max(i + d + 1, 0), n - 1)
+                shifted[i] = row[lo] * g + row[hi] * f
+            for j in range(layers):
+                if p == 0:
+                    w = rough_weights[j, r]
+                    acc = acc_rough[j]
+                else:
+                    w = mark_weights[j, r * k + p - 1]
+                    acc = acc_marks[j]
+                if w == 0.0:
+                    # Adds zeros: a sum started at +0.0 keeps its bits (a ridge outside
+                    # this layer's contact).
+                    continue
+                for i in range(n):
+                    acc[i] += w * shifted[i]
+    for j in range(layers):
+        total = totals[j]
+        for i in range(n):
+            felt = acc_rough[j, i] + acc_marks[j, i] if k > 0 else acc_rough[j, i]
+            heights[j, i] = felt / total
+    two_dx = 2.0 * dx
+    for j in range(layers):
+        slopes[j, 0] = (heights[j, 1] - heights[j, 0]) / dx
+        for i in range(1, n - 1):
+            slopes[j, i] = (heights[j, i + 1] - heights[j, i - 1]) / two_dx
+        slopes[j, n - 1] = (heights[j, n - 1] - heights[j, n - 2]) / dx
 
 
 @numba.njit(cache=True, nogil=True)

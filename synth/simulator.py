@@ -42,7 +42,7 @@ from tactile_synth.threads import rollout_threads
 
 from . import contact, kernels, sensors, texture
 from . import scene as scene_mod
-from .closed_loop import CLOCK_START_S, ClosedLoop, LoopTrial
+from .closed_loop import CLOCK_START_S, ClosedLoop, LoopTrial, timers_off
 from .config import SynthConfig
 from .trial import N_SAMPLES, SAMPLE_RATE_HZ, WINDOW_S, Trial, TrialSpec, class_index
 
@@ -582,12 +582,21 @@ def raw_rollout_times(
     """:func:`raw_rollout`'s wall seconds and the process's CPU seconds inside its
     rollout calls (every rollout thread's): the planning and set-up around the calls are
     in neither, so a comparison with an end-to-end run's CPU charges that run with its
-    planning. Other threads of this process computing meanwhile would count too."""
+    planning. Other threads of this process computing meanwhile would count too. MuJoCo
+    runs without its profiling timers, as in the simulator
+    (:func:`synth.closed_loop.timers_off`)."""
     config = _check_config(config)
     threads = threads or rollout_threads()
     by_shape: dict[tuple[str, float], list[Plan]] = {}
     for s in specs:
         by_shape.setdefault((s.shape, s.speed_mm_s), []).append(plan(s, config))
+    with timers_off():  # as the simulator runs MuJoCo
+        return _raw_rollout_times(by_shape, threads)
+
+
+def _raw_rollout_times(
+    by_shape: dict[tuple[str, float], list[Plan]], threads: int
+) -> tuple[float, float]:
     wall = cpu = 0.0
     for group in by_shape.values():
         steps = max(p.steps for p in group)

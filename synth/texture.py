@@ -341,23 +341,16 @@ def loaded_surface(
     # The roughness at unit averaging; each layer scales it for its own mean chord.
     rough, marks = _profile_parts(texture, length, rng, 0.0)
     rough = _over_ridge_width(finger, rough, marks)
-    grid = np.arange(rough.size) * GRID_M
-    # What each ridge is under: (ridges, n) roughness and (ridges, marks, n) marks.
-    pad = math.ceil(margin / GRID_M) + 2
-    padded = np.pad(np.vstack([rough, marks]), ((0, 0), (pad, pad)), mode="edge")
-    # Filled in place, one ridge at a time; the marks are kept contiguous so that the
-    # layers' sums over ridges and marks read them without a copy each.
-    ridge_rough = np.empty((offsets.size, grid.size))
-    ridge_marks = np.empty((offsets.size, marks.shape[0], grid.size))
-    scratch = np.empty((max(marks.shape[0], 1), grid.size))
-    for o, r_rough, r_marks in zip(offsets, ridge_rough, ridge_marks, strict=True):
-        _shifted(padded[:1], pad, o / GRID_M, r_rough[None], scratch[:1])
-        _shifted(padded[1:], pad, o / GRID_M, r_marks, scratch[: r_marks.shape[0]])
+    n = rough.size
+    # What each ridge is under: every profile read offset / GRID_M cells further on.
+    cells = [o / GRID_M for o in offsets.tolist()]
+    whole = np.array([math.floor(c) for c in cells], dtype=np.intp)
+    frac = np.array([c - math.floor(c) for c in cells])
     wavelengths = np.array([c.wavelength_m for c in texture.periodic])
-    heights = np.empty((radii.size, grid.size))
-    flat_marks = ridge_marks.reshape(-1, grid.size)  # (ridges * marks, n), a view
-    felt, marked = np.empty(grid.size), np.empty(grid.size)
-    for layer, a in zip(heights, radii, strict=True):
+    rough_weights = np.empty((radii.size, offsets.size))
+    mark_weights = np.empty((radii.size, offsets.size * wavelengths.size))
+    totals = np.empty(radii.size)
+    for layer, a in enumerate(radii):
         chords = 2.0 * np.sqrt(np.maximum(a * a - offsets**2, 0.0))
         inside = chords > 0
         if inside.any():
@@ -370,33 +363,25 @@ def loaded_surface(
         scale = 0.0
         if texture.roughness_rms_m > 0:
             scale = math.sqrt(line_average_variance(texture.correlation_length_m, mean_chord))
-        gains = mark_gains(chords, wavelengths, mark_angle_rad) * weights[:, None]
-        kernels.weighted_rows(scale * weights, ridge_rough, felt)
-        if gains.size:
-            kernels.weighted_rows(gains.ravel(), flat_marks, marked)
-            felt += marked
-        layer[:] = felt / weights.sum()
-    slopes = np.gradient(heights, GRID_M, axis=1)
+        rough_weights[layer] = scale * weights
+        mark_weights[layer] = (
+            mark_gains(chords, wavelengths, mark_angle_rad) * weights[:, None]
+        ).ravel()
+        totals[layer] = weights.sum()
+    heights = np.empty((radii.size, n))
+    slopes = np.empty((radii.size, n))
+    kernels.felt_layers(
+        np.vstack([rough, marks]),
+        whole,
+        frac,
+        rough_weights,
+        mark_weights,
+        totals,
+        GRID_M,
+        heights,
+        slopes,
+    )
     return LoadedSurface(start_m - margin, loads, radii, heights, slopes)
-
-
-def _shifted(
-    padded: np.ndarray, pad: int, cells: float, out: np.ndarray, scratch: np.ndarray
-) -> np.ndarray:
-    """Rows of ``padded`` (each of ``n`` values padded with ``pad`` copies of its end
-    values on both sides) read ``cells`` grid steps further on, ``|cells| < pad``: linear
-    interpolation between grid points, the end values beyond the ends, like
-    ``np.interp(grid + cells * GRID_M, grid, row)``, by slicing. Written into ``out``
-    (the shape of ``padded`` less ``2 * pad`` columns), which is returned; ``scratch``,
-    of the same shape, holds the second term."""
-    n = padded.shape[-1] - 2 * pad
-    whole = math.floor(cells)
-    frac = cells - whole
-    lo = padded[..., pad + whole : pad + whole + n]
-    hi = padded[..., pad + whole + 1 : pad + whole + 1 + n]
-    np.multiply(lo, 1.0 - frac, out=out)
-    out += np.multiply(hi, frac, out=scratch)
-    return out
 
 
 def stack_surfaces(surfaces: list[FeltSurface]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

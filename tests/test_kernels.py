@@ -231,6 +231,61 @@ def test_the_power_ufunc_gives_the_c_librarys_bits():
     assert np.array_equal(kernels.power(1.3, y), np.array([math.pow(1.3, b) for b in y]))
 
 
+def _felt_layers_numpy(profiles, cells, rough_weights, mark_weights, totals, dx):
+    """The ridge-by-ridge numpy form of ``kernels.felt_layers``: each ridge's shifted copy
+    of every profile (edge-padded, read by slicing), the layers' sums as
+    ``weighted_rows``, the slope by ``np.gradient``."""
+    k, n = profiles.shape[0] - 1, profiles.shape[1]
+    pad = int(max(abs(c) for c in cells)) + 2
+    padded = np.pad(profiles, ((0, 0), (pad, pad)), mode="edge")
+    shifted = np.empty((len(cells), 1 + k, n))
+    for c, out in zip(cells, shifted, strict=True):
+        whole = math.floor(c)
+        frac = c - whole
+        lo = padded[:, pad + whole : pad + whole + n]
+        hi = padded[:, pad + whole + 1 : pad + whole + 1 + n]
+        out[:] = np.multiply(lo, 1.0 - frac) + np.multiply(hi, frac)
+    heights = np.empty((len(totals), n))
+    for j, layer in enumerate(heights):
+        felt, marked = np.empty(n), np.empty(n)
+        kernels.weighted_rows(rough_weights[j], np.ascontiguousarray(shifted[:, 0]), felt)
+        if k:
+            flat = np.ascontiguousarray(shifted[:, 1:]).reshape(-1, n)
+            kernels.weighted_rows(mark_weights[j], flat, marked)
+            felt += marked
+        layer[:] = felt / totals[j]
+    return heights, np.gradient(heights, dx, axis=1)
+
+
+def test_the_felt_layers_kernel_gives_the_ridge_by_ridge_bits():
+    """``felt_layers`` reads every ridge's shift inside its loop over the grid and gives
+    the bits of the shifted copies summed row by row: with and without marks, ridges
+    shifted either way and past the profiles' ends, zero weights (skipped: adding zeros
+    to a sum started at +0.0 keeps its bits)."""
+    rng = np.random.default_rng(8)
+    for k, ridges, layers, n in ((2, 9, 5, 700), (0, 4, 3, 50), (1, 1, 1, 12), (3, 12, 5, 301)):
+        profiles = rng.normal(0.0, 1e-6, (1 + k, n))
+        cells = list(rng.uniform(-25.0, 25.0, ridges)) + [0.0, -3.0][: max(0, 2 - ridges)]
+        ridges = len(cells)
+        rough_weights = rng.uniform(0.0, 1e-3, (layers, ridges))
+        rough_weights[0, 0] = 0.0
+        rough_weights[:, -1] = 0.0  # a ridge outside every layer's contact
+        mark_weights = rng.normal(0.0, 1e-3, (layers, ridges * k))
+        mark_weights[-1, :k] = 0.0
+        totals = rng.uniform(1e-3, 1e-2, layers)
+        whole = np.array([math.floor(c) for c in cells], dtype=np.intp)
+        frac = np.array([c - math.floor(c) for c in cells])
+        heights, slopes = np.full((layers, n), np.nan), np.full((layers, n), np.nan)
+        kernels.felt_layers(
+            profiles, whole, frac, rough_weights, mark_weights, totals, 5e-6, heights, slopes
+        )
+        want_h, want_s = _felt_layers_numpy(
+            profiles, cells, rough_weights, mark_weights, totals, 5e-6
+        )
+        assert np.array_equal(heights, want_h), (k, ridges)
+        assert np.array_equal(slopes, want_s), (k, ridges)
+
+
 def test_the_weighted_rows_and_the_box_mean_sum_in_one_order():
     """``weighted_rows`` adds the rows in order and ``box_mean`` its window's samples in
     order of their position, to the last bit of the same sums as numpy expressions;

@@ -882,6 +882,39 @@ def test_the_raw_rollout_times_only_its_rollout_calls():
     assert 0.0 < cpu < total_cpu
 
 
+def test_mujoco_runs_without_its_timers_and_gets_the_callers_clock_back():
+    """While the simulator and the raw rollout run, MuJoCo's timer callback is the
+    no-op clock (a clock of the caller's is not called); afterwards it is the caller's
+    again, and nested uses keep it off until the outermost ends."""
+    import mujoco
+
+    from synth.closed_loop import timers_off
+
+    calls = []
+
+    def clock() -> float:
+        calls.append(1)
+        return 0.0
+
+    mujoco.set_mjcb_time(clock)
+    try:
+        spec = TrialSpec("circle", "wood", seed=3)
+        sim.simulate_batch([spec], threads=1)
+        sim.raw_rollout_times([spec], threads=1)
+        assert calls == []
+        assert mujoco.get_mjcb_time() is clock
+        with timers_off():
+            with timers_off():
+                pass
+            assert mujoco.get_mjcb_time() is not clock
+        assert mujoco.get_mjcb_time() is clock
+        data = mujoco.MjData(sim.plan(spec, SynthConfig()).model)
+        mujoco.mj_step(data.model, data)
+        assert calls  # the caller's clock runs outside the simulator
+    finally:
+        mujoco.set_mjcb_time(None)
+
+
 def test_a_fixed_number_of_ridges_is_accepted_or_refused_by_name():
     base = SynthConfig().finger
     assert dataclasses.replace(base, ridges_in_contact=7).ridges_in_contact == 7
