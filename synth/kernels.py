@@ -22,8 +22,9 @@ from the C library's in the last bit of some values, so the same seed would give
 bits there than on a CPU without it. The C library's functions do not follow numpy's
 choice of kernels, and they are what numpy itself calls on a CPU without AVX-512.
 Intel's vector math library (SVML), which numba would use where it is installed, is
-turned off for the same reason. Sines and cosines stay in numpy: its versions match the
-C library's.
+turned off for the same reason. Sines and cosines come from the C library too (``math``
+calls inside the kernels, numpy's own elsewhere): numpy's float64 versions are the C
+library's.
 
 ``nogil``: a generation running two chunks on threads steps one chunk's loop while the
 other's holds the interpreter. ``cache``: compiled once per machine, into the package's
@@ -389,8 +390,7 @@ def touchable(
 @numba.njit(cache=True, nogil=True)
 def mechanics(
     sens,
-    cos_pitch,
-    sin_pitch,
+    pitch_col,
     direction,
     cols,
     force,
@@ -404,7 +404,7 @@ def mechanics(
     columns ``cols`` (contact, pad position, contact depth, mount force, mount torque):
     the contact ``force`` ``(b, n, 3)`` (0 without a contact), the mount's force and
     torque turned from the rocking pad's frame into the phalanx's (by the pad's pitch,
-    given by its cosine and sine ``(b, n)``), how far the contact centre lies ahead of
+    the sensors' column ``pitch_col``), how far the contact centre lies ahead of
     the pad along the path ``direction`` ``(b, 2)``, the skin's indentation (the
     deepest penetration, 0 without one) and the traction along the path
     (:func:`synth.simulator._process`'s mechanics)."""
@@ -417,7 +417,7 @@ def mechanics(
             found = row[c_contact] > 0
             for a in range(3):
                 force[i, t, a] = row[c_contact + 1 + a] if found else 0.0
-            c, s = cos_pitch[i, t], sin_pitch[i, t]
+            c, s = math.cos(row[pitch_col]), math.sin(row[pitch_col])
             x, y, z = row[c_force], row[c_force + 1], row[c_force + 2]
             mount_force[i, t, 0] = c * x + s * z
             mount_force[i, t, 1] = y
@@ -438,3 +438,53 @@ def mechanics(
             else:
                 indentation[i, t] = 0.0
             traction[i, t] = -(force[i, t, 0] * dx + force[i, t, 1] * dy)
+
+
+@numba.njit(inline="always")
+def _surface_slope(x, delta, radius):
+    """:func:`synth.contact.surface_slope` at one point, for ``delta >= 0``: the same
+    operations in the same order."""
+    if not delta > 0.0:
+        return 0.0
+    r = abs(x)
+    a = math.sqrt(radius * delta)
+    if r <= a:
+        slope = -r / radius
+    else:
+        a_safe = a if a > 0.0 else 1.0
+        rho = r / a_safe
+        if rho < 1.0:
+            rho = 1.0
+        slope = (
+            delta
+            / (math.pi * a_safe)
+            * (2.0 * math.sqrt(rho * rho - 1.0) / rho - 2.0 * rho * math.asin(1.0 / rho))
+        )
+    if x > 0.0:
+        return slope
+    if x < 0.0:
+        return slope * -1.0
+    return slope * 0.0
+
+
+@numba.njit(cache=True, nogil=True)
+def film_strains(
+    ahead, indentation, traction, centres, half, radius, neg_offset, length, shears, out
+):
+    """:func:`synth.sensors.film_strains`' arithmetic: film ``f`` (centre ``centres[f]``
+    from the pad's axis, shear factor ``shears[f]``) at every sample of ``ahead``,
+    ``indentation`` and ``traction`` ``(b, n)``, into ``out`` ``(b, films, n)``: the
+    slope's rise over the film, ``neg_offset * rise / length``, minus ``shears[f]`` times
+    the traction."""
+    b, n = ahead.shape
+    for i in range(b):
+        for f in range(centres.size):
+            c0 = centres[f]
+            shear = shears[f]
+            for t in range(n):
+                centre = c0 - ahead[i, t]
+                delta = indentation[i, t]
+                rise = _surface_slope(centre + half, delta, radius) - _surface_slope(
+                    centre - half, delta, radius
+                )
+                out[i, f, t] = neg_offset * rise / length - shear * traction[i, t]

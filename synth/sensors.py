@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal
 
-from . import contact
+from . import kernels
 from .config import PVDF, Acquisition, Finger, StrainGauge, SynthConfig
 
 
@@ -88,19 +88,24 @@ def film_strains(mech: Mechanics, finger: Finger, pvdf: PVDF) -> np.ndarray:
     adds ``shear_strain_per_n`` times the traction along the path, with opposite signs in
     the two films (:attr:`synth.config.PVDF.shear_strain_per_n`).
     """
-    out = []
-    half = pvdf.length_m / 2.0
-    r = finger.pad_radius_m
-    for sign in (1.0, -1.0):  # front film ahead of the pad's axis, rear film behind it
-        centre = sign * pvdf.offset_m - mech.contact_ahead_m
-        rise = contact.surface_slope(centre + half, mech.indentation_m, r) - (
-            contact.surface_slope(centre - half, mech.indentation_m, r)
-        )
-        bending = -pvdf.neutral_axis_offset_m * rise / pvdf.length_m
-        # A traction along the path shortens the skin ahead of the contact and stretches
-        # it behind (Cerruti); sliding friction, against the path, does the reverse.
-        out.append(bending - sign * pvdf.shear_strain_per_n * mech.traction_n)
-    return np.stack(out, axis=1)
+    ahead = np.ascontiguousarray(mech.contact_ahead_m, dtype=float)
+    out = np.empty((ahead.shape[0], 2, ahead.shape[1]))
+    signs = np.array([1.0, -1.0])  # front film ahead of the pad's axis, rear film behind it
+    # A traction along the path shortens the skin ahead of the contact and stretches it
+    # behind (Cerruti); sliding friction, against the path, does the reverse.
+    kernels.film_strains(
+        ahead,
+        np.ascontiguousarray(mech.indentation_m, dtype=float),
+        np.ascontiguousarray(mech.traction_n, dtype=float),
+        signs * pvdf.offset_m,
+        pvdf.length_m / 2.0,
+        finger.pad_radius_m,
+        -pvdf.neutral_axis_offset_m,
+        pvdf.length_m,
+        signs * pvdf.shear_strain_per_n,
+        out,
+    )
+    return out
 
 
 def film_on_carrier(

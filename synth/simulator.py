@@ -386,9 +386,7 @@ def _process(
     fs = SAMPLE_RATE_HZ * k
     contact_data = sens[..., cols["contact"]]
     pad_pos = sens[..., cols["pad_pos"]]
-    # The mount's force sensor turns with the rocking pad; the gauges' phalanx does not.
-    pitch = sens[..., cols["pad_pitch"].start]
-    b, n = pitch.shape
+    b, n = sens.shape[:2]
     force = np.empty((b, n, 3))
     mech = sensors.Mechanics(
         mount_force=np.empty((b, n, 3)),
@@ -397,10 +395,10 @@ def _process(
         indentation_m=np.empty((b, n)),
         traction_n=np.empty((b, n)),
     )
+    # The mount's force sensor turns with the rocking pad; the gauges' phalanx does not.
     kernels.mechanics(
         sens,
-        np.cos(pitch),
-        np.sin(pitch),
+        cols["pad_pitch"].start,
         np.array([p.loop.direction for p in plans]),
         np.array([cols[c].start for c in _MECHANICS_COLUMNS]),
         force,

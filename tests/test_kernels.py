@@ -162,15 +162,17 @@ def test_the_compiled_piece_choice_gives_its_numpy_forms_choice(shape):
 
 
 def test_the_compiled_mechanics_give_their_numpy_forms_bits():
-    """The contact force, the mount's force and torque in the phalanx's frame, the
-    contact's lead, the indentation and the traction as numpy expressions give them,
-    with and without a contact and a penetration."""
+    """The contact force, the mount's force and torque in the phalanx's frame (turned by
+    the pitch's cosine and sine, numpy's), the contact's lead, the indentation and the
+    traction as numpy expressions give them, with and without a contact and a
+    penetration."""
     rng = np.random.default_rng(21)
     b, n = 3, 50
     cols = synth.scene.sensor_columns()
     sens = rng.normal(0, 1, (b, n, 32))
     sens[..., cols["contact"].start] = rng.choice([0.0, 1.0, 3.0], (b, n))
     sens[..., cols["contact_depth"].start] = rng.choice([0.0, 1.0], (b, n))
+    sens[..., cols["pad_pitch"].start] = rng.normal(0, 0.3, (b, n))
     pitch = sens[..., cols["pad_pitch"].start]
     cos_pitch, sin_pitch = np.cos(pitch), np.sin(pitch)
     angle = rng.normal(0, 0.01, b)
@@ -179,7 +181,7 @@ def test_the_compiled_mechanics_give_their_numpy_forms_bits():
     got = [np.empty((b, n, 3)), np.empty((b, n, 3)), np.empty((b, n, 3))]
     got += [np.empty((b, n)) for _ in range(3)]
     index = np.array([cols[c].start for c in names])
-    kernels.mechanics(sens, cos_pitch, sin_pitch, direction, index, *got)
+    kernels.mechanics(sens, cols["pad_pitch"].start, direction, index, *got)
 
     def unrock(v):
         x, y, z = v[..., 0], v[..., 1], v[..., 2]
@@ -202,6 +204,43 @@ def test_the_compiled_mechanics_give_their_numpy_forms_bits():
     for g, w in zip(got, want, strict=True):
         assert np.array_equal(g, w)
     assert 0 < found.mean() < 1 and (want[4] > 0).any() and (want[4] == 0).any()
+
+
+def test_the_compiled_film_strains_give_their_numpy_forms_bits():
+    """The films' strains as numpy expressions of ``contact.surface_slope`` give them:
+    films inside, across and outside the contact, no contact, a contact centred on a
+    film's end."""
+    from synth import contact, sensors
+
+    rng = np.random.default_rng(22)
+    cfg = SynthConfig()
+    finger, pv = cfg.finger, cfg.pvdf
+    b, n = 4, 400
+    ahead = rng.normal(0.0, 3e-3, (b, n))
+    ahead[0, :5] = pv.offset_m + pv.length_m / 2  # the front film's rear end at the centre
+    ahead[0, 5:10] = -pv.offset_m - pv.length_m / 2
+    indentation = rng.choice([0.0, 1.0], (b, n)) * rng.uniform(0.0, 1e-3, (b, n))
+    traction = rng.normal(0.0, 0.3, (b, n))
+    mech = sensors.Mechanics(
+        mount_force=np.zeros((b, n, 3)),
+        mount_torque=np.zeros((b, n, 3)),
+        contact_ahead_m=ahead,
+        indentation_m=indentation,
+        traction_n=traction,
+    )
+    got = sensors.film_strains(mech, finger, pv)
+    half, r = pv.length_m / 2.0, finger.pad_radius_m
+    want = []
+    for sign in (1.0, -1.0):
+        centre = sign * pv.offset_m - ahead
+        rise = contact.surface_slope(centre + half, indentation, r) - (
+            contact.surface_slope(centre - half, indentation, r)
+        )
+        bending = -pv.neutral_axis_offset_m * rise / pv.length_m
+        want.append(bending - sign * pv.shear_strain_per_n * traction)
+    want = np.stack(want, axis=1)
+    assert np.array_equal(got, want)
+    assert (indentation == 0).any() and np.abs(want).max() > 0
 
 
 @pytest.mark.parametrize(
