@@ -262,10 +262,16 @@ class ClosedLoop:
         warm = np.zeros((b, self.nv))
         slope = np.empty((b, k))
         reset = np.zeros(b, dtype=bool)
-        # The skin's sliding coefficient in each model, as flat views (one store per model).
-        frictions = [m.geom_friction.reshape(-1) for m in self.models]
-        mu_at = self.skin * base.geom_friction.shape[1]
+        # Where each model keeps the skin's sliding coefficient (self.models keeps the
+        # buffers alive), written before every period by kernels.store_at.
+        item = base.geom_friction.itemsize
+        mu_at = self.skin * base.geom_friction.shape[1] * item
+        friction_at = np.array(
+            [m.geom_friction.ctypes.data + mu_at for m in self.models], dtype=np.uint64
+        )
+        mu = np.empty(b)
         warnings = [d.warning.number for d in datas]  # live views of the warning counters
+        no_warning = bytes(warnings[0].nbytes)
         # The sensors the next period responds to (kernels.next_state): contact found, its
         # force's z, the skin's x and its slip velocity's x (y follows each), the wrist's.
         found = cols["contact"].start
@@ -307,10 +313,17 @@ class ClosedLoop:
                 wrist_sum[:] = 0.0
                 self.z_ref += mot.control_period_s * self.gain * (wrist - self.force)
             # Friction from the simulated slip and load.
-            for arr, value in zip(
-                frictions, self.friction(slip_speed, normal).tolist(), strict=True
-            ):
-                arr[mu_at] = value
+            kernels.friction_law(
+                slip_speed,
+                normal,
+                self.kinetic,
+                self.static_excess,
+                self.v_stribeck,
+                self.load_exp,
+                self.scale,
+                mu,
+            )
+            kernels.store_at(friction_at, mu)
             # Texture under the contact, extrapolated over the period, as felt by the
             # ridges inside the contact the simulated load makes; the specimen's heights
             # go straight to the output.
@@ -346,7 +359,7 @@ class ClosedLoop:
                 wrist_sum,
                 reset,
             )
-            if was_reset or any(w.any() for w in warnings):
+            if was_reset or any(w.tobytes() != no_warning for w in warnings):
                 self.unstable_ = np.flatnonzero(reset)
                 self.warned_ = _warning_names(datas)
                 break

@@ -41,6 +41,8 @@ os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")
 
 import numba
 import numpy as np
+from numba import types
+from numba.extending import intrinsic
 
 if numba.config.USING_SVML:  # numba was imported earlier with SVML enabled
     raise ImportError(
@@ -99,6 +101,28 @@ def friction_law(slip_speed, normal, kinetic, static_excess, v_stribeck, load_ex
         ratio = slip_speed[i] / v_stribeck[i]
         weak = math.exp(-(ratio * ratio))
         out[i] = (kinetic[i] + static_excess[i] * weak) * f ** load_exp[i] * scale[i]
+
+
+@intrinsic
+def _double_at(typingctx, address):
+    """The integer ``address`` as a pointer to a float64."""
+    pointer = types.CPointer(types.float64)
+
+    def codegen(context, builder, signature, args):
+        return builder.inttoptr(args[0], context.get_value_type(pointer))
+
+    return pointer(types.uintp), codegen
+
+
+@numba.njit(cache=True, nogil=True)
+def store_at(addresses, values):
+    """Write ``values[i]`` to the float64 at memory address ``addresses[i]`` (uint64).
+
+    The closed loop sets the skin's friction coefficient in each trial's own model before
+    every period: one element of a different MuJoCo buffer per trial, which numpy can
+    only write one Python call at a time. The caller keeps the buffers alive."""
+    for i in range(values.size):
+        _double_at(addresses[i])[0] = values[i]
 
 
 @numba.njit(cache=True, nogil=True)

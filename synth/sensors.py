@@ -7,6 +7,7 @@ it was computed in (bit-identical whatever the batching).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -61,8 +62,7 @@ def bridge_volts(strain: np.ndarray, sg: StrainGauge, fs_hz: float) -> np.ndarra
     """Quarter Wheatstone bridge (exact, slightly non-linear), amplifier, low-pass."""
     x = sg.gauge_factor * (strain + sg.offset_strain)
     v = sg.excitation_v * (x / 4.0) / (1.0 + x / 2.0) * sg.amplifier_gain
-    sos = signal.butter(2, sg.lowpass_hz, fs=fs_hz, output="sos")
-    return signal.sosfilt(sos, v, axis=-1)
+    return signal.sosfilt(_butter_sos(2, sg.lowpass_hz, fs_hz), v, axis=-1)
 
 
 def bridge_zero_v(sg: StrainGauge) -> float:
@@ -136,12 +136,13 @@ def pvdf_volts(strain: np.ndarray, pvdf: PVDF, fs_hz: float) -> np.ndarray:
     corner of its feedback ``R_f C_f`` (first order: below the corner the output follows
     the strain rate), times the post-amplifier gain."""
     charge = pvdf.d31_c_per_n * pvdf.youngs_modulus_pa * strain * pvdf.area_m2
-    rc = pvdf.feedback_resistance_ohm * pvdf.feedback_capacitance_f
-    b, a = signal.bilinear([rc, 0.0], [rc, 1.0], fs=fs_hz)
+    b, a, zi_unit = _charge_amplifier(
+        pvdf.feedback_resistance_ohm * pvdf.feedback_capacitance_f, fs_hz
+    )
     # The finger has rested under load long before the record starts: the amplifier has
     # settled to the initial strain (zero output for a constant input).
     x = -charge / pvdf.feedback_capacitance_f
-    zi = signal.lfilter_zi(b, a) * x[..., :1]
+    zi = zi_unit * x[..., :1]
     v, _ = signal.lfilter(b, a, x, axis=-1, zi=zi)
     return v * pvdf.post_gain
 
@@ -168,8 +169,31 @@ def amplifier_noise_v(config: SynthConfig) -> np.ndarray:
 
 def antialias(volts: np.ndarray, acq: Acquisition, fs_hz: float) -> np.ndarray:
     """The DAQ's anti-alias low-pass at the physics rate (before resampling)."""
-    sos = signal.butter(acq.antialias_order, acq.antialias_hz, fs=fs_hz, output="sos")
-    return signal.sosfilt(sos, volts, axis=-1)
+    return signal.sosfilt(_butter_sos(acq.antialias_order, acq.antialias_hz, fs_hz), volts, axis=-1)
+
+
+def _butter_sos(order: int, cutoff_hz: float, fs_hz: float) -> np.ndarray:
+    """A Butterworth low-pass's second-order sections, a fresh copy of the design (made
+    once per setting: every batch filters with the same few)."""
+    return _butter_design(order, cutoff_hz, fs_hz).copy()
+
+
+@functools.lru_cache(maxsize=16)
+def _butter_design(order: int, cutoff_hz: float, fs_hz: float) -> np.ndarray:
+    return signal.butter(order, cutoff_hz, fs=fs_hz, output="sos")
+
+
+def _charge_amplifier(rc_s: float, fs_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(b, a, zi)`` of the charge amplifier's first-order high-pass ``s rc / (s rc + 1)``
+    at ``fs_hz`` (bilinear transform) and its steady state for a unit input; fresh copies
+    of the design, made once per setting."""
+    return tuple(x.copy() for x in _charge_design(rc_s, fs_hz))
+
+
+@functools.lru_cache(maxsize=16)
+def _charge_design(rc_s: float, fs_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    b, a = signal.bilinear([rc_s, 0.0], [rc_s, 1.0], fs=fs_hz)
+    return b, a, signal.lfilter_zi(b, a)
 
 
 def digitise(

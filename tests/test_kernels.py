@@ -206,6 +206,22 @@ def test_the_compiled_mechanics_give_their_numpy_forms_bits():
     assert 0 < found.mean() < 1 and (want[4] > 0).any() and (want[4] == 0).any()
 
 
+def test_store_at_writes_each_value_into_its_own_buffer():
+    """The closed loop's friction write: one element of each trial's own MuJoCo model,
+    the other elements and models untouched."""
+    models = [synth.scene.scene("circle", SynthConfig()).trial_model(0.5) for _ in range(3)]
+    before = [m.geom_friction.copy() for m in models]
+    row = 1
+    at = np.array(
+        [m.geom_friction.ctypes.data + row * m.geom_friction.strides[0] for m in models],
+        dtype=np.uint64,
+    )
+    kernels.store_at(at, np.array([0.7, 1.1, 2.3]))
+    for m, old, value in zip(models, before, (0.7, 1.1, 2.3), strict=True):
+        old[row, 0] = value
+        assert np.array_equal(m.geom_friction, old)
+
+
 def test_the_compiled_film_strains_give_their_numpy_forms_bits():
     """The films' strains as numpy expressions of ``contact.surface_slope`` give them:
     films inside, across and outside the contact, no contact, a contact centred on a
