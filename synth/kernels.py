@@ -153,6 +153,20 @@ def weighted_rows(weights, rows, out):
             out[n] += w * rows[r, n]
 
 
+@numba.njit(cache=True, nogil=True, inline="never")
+def _interpolate(row, g, f, out):
+    """``out[i] = row[i] * g + row[i + 1] * f`` (separate arrays: a vectorised loop)."""
+    for i in range(out.size):
+        out[i] = row[i] * g + row[i + 1] * f
+
+
+@numba.njit(cache=True, nogil=True, inline="never")
+def _add_scaled(acc, w, x):
+    """``acc += w * x`` (separate arrays: a vectorised loop)."""
+    for i in range(acc.size):
+        acc[i] += w * x[i]
+
+
 @numba.njit(cache=True, nogil=True)
 def felt_layers(profiles, whole, frac, rough_weights, mark_weights, totals, dx, heights, slopes):
     """A loaded surface's layers (:func:`synth.texture.loaded_surface`) in one pass over
@@ -187,25 +201,19 @@ def felt_layers(profiles, whole, frac, rough_weights, mark_weights, totals, dx, 
                 lo = min(max(i + d, 0), n - 1)
                 hi = min(max(i + d + 1, 0), n - 1)
                 shifted[i] = row[lo] * g + row[hi] * f
-            for i in range(first, stop):
-                shifted[i] = row[i + d] * g + row[i + d + 1] * f
+            _interpolate(row[first + d : stop + d + 1], g, f, shifted[first:stop])
             for i in range(stop, n):
                 lo = min(max(i + d, 0), n - 1)
                 hi = min(max(i + d + 1, 0), n - 1)
                 shifted[i] = row[lo] * g + row[hi] * f
+            sums = acc_rough if p == 0 else acc_marks
             for j in range(layers):
-                if p == 0:
-                    w = rough_weights[j, r]
-                    acc = acc_rough[j]
-                else:
-                    w = mark_weights[j, r * k + p - 1]
-                    acc = acc_marks[j]
+                w = rough_weights[j, r] if p == 0 else mark_weights[j, r * k + p - 1]
                 if w == 0.0:
                     # Adds zeros: a sum started at +0.0 keeps its bits (a ridge outside
                     # this layer's contact).
                     continue
-                for i in range(n):
-                    acc[i] += w * shifted[i]
+                _add_scaled(sums[j], w, shifted)
     for j in range(layers):
         total = totals[j]
         for i in range(n):

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 import shapely
-from mujoco import rollout
+from mujoco import _rollout
 
 import shapes
 from shapes import SPECIMEN
@@ -561,14 +561,15 @@ def simulate_batch(
 def raw_rollout(
     specs: Sequence[TrialSpec], *, config: SynthConfig | None = None, threads: int | None = None
 ) -> float:
-    """Physics only, for speed references: one open-loop ``mujoco.rollout`` call per
-    rollout batch of ``specs`` (the trials of one shape and speed, cut as
-    :func:`rollout_chunks` cuts them), with the path and the initial force set point but
-    no controller, texture, sensor chain, checks or storage. Every batch runs to the
-    longest plan among all of its shape's and speed's trials, where :func:`simulate_batch`
-    stops each batch at its own longest plan; the plans' lengths differ by their
-    placement's scatter, and a batch of tens of trials holds one near the longest, so the
-    two step counts differ by little. Returns the rollout wall seconds
+    """Physics only, for speed references: one open-loop call of MuJoCo's C++ rollout
+    (the one under ``mujoco.rollout``) per rollout batch of ``specs`` (the trials of one
+    shape and speed, cut as :func:`rollout_chunks` cuts them), with the path and the
+    initial force set point but no controller, texture, sensor chain, checks or storage;
+    its inputs and outputs are made and their memory touched before the call. Every
+    batch runs to the longest plan among all of its shape's and speed's trials, where
+    :func:`simulate_batch` stops each batch at its own longest plan; the plans' lengths
+    differ by their placement's scatter, and a batch of tens of trials holds one near the
+    longest, so the two step counts differ by little. Returns the rollout wall seconds
     (:func:`raw_rollout_times` also gives their CPU seconds).
     """
     return raw_rollout_times(specs, config=config, threads=threads)[0]
@@ -595,11 +596,18 @@ def raw_rollout_times(
 def _raw_rollout_times(
     by_shape: dict[tuple[str, float], list[Plan]], threads: int
 ) -> tuple[float, float]:
+    # MuJoCo's C++ rollout as the closed loop calls it, one call per batch; the inputs and
+    # the outputs are made and touched before the timed call, so that it times the
+    # physics (the Python wrapper, mujoco.rollout.rollout, copies the controls and
+    # allocates the outputs inside its call).
+    runner = _rollout.Rollout(nthread=threads if threads > 1 else 0)
+    spec = int(scene_mod.CONTROL_SPEC)
     wall = cpu = 0.0
     for group in by_shape.values():
         steps = max(p.steps for p in group)
-        datas = [mujoco.MjData(group[0].model) for _ in range(threads)]
-        lay = scene_mod.control_layout(group[0].model)
+        base = group[0].model
+        datas = [mujoco.MjData(base) for _ in range(threads)]
+        lay = scene_mod.control_layout(base)
         for part in batches(len(group)):
             chunk = group[part]
             control = np.zeros((len(chunk), steps, lay["size"].stop))
@@ -608,14 +616,23 @@ def _raw_rollout_times(
                 control[i, :, 1] = p.loop.y_ref[:steps]
                 control[i, :, 2] = p.loop.z_ref0
             state0 = _initial_states(chunk)
+            warm = np.zeros((len(chunk), base.nv))
+            state = np.empty((len(chunk), steps, state0.shape[1]))
+            sens = np.empty((len(chunk), steps, base.nsensordata))
+            state.fill(0.0)
+            sens.fill(0.0)
             t0, c0 = time.perf_counter(), time.process_time()
-            rollout.rollout(
+            runner.rollout(
                 [p.model for p in chunk],
                 datas,
+                steps,
+                spec,
                 state0,
+                warm,
                 control,
-                control_spec=scene_mod.CONTROL_SPEC,
-                nstep=steps,
+                state,
+                sens,
+                None,
             )
             wall += time.perf_counter() - t0
             cpu += time.process_time() - c0
