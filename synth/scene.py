@@ -301,10 +301,24 @@ def _scene_cached(shape: str, finger_json: str, motion_json: str) -> Scene:
 
 def scene(shape: str, config: SynthConfig) -> Scene:
     """The compiled scene for ``shape`` (cached per shape and finger/motion parameters)."""
+    # Every trial's plan asks, mostly with the same configuration objects: they are
+    # answered by identity first (hashing the two sections takes longer than the rest of
+    # the look-up). The entry keeps the sections alive, so their ids stay theirs.
+    key = (shape, id(config.finger), id(config.motion))
+    hit = _by_identity.get(key)
+    if hit is not None and hit[0] is config.finger and hit[1] is config.motion:
+        return hit[2]
     try:
-        return _scene_for(shape, config.finger, config.motion)
+        found = _scene_for(shape, config.finger, config.motion)
     except TypeError:  # a section holding an unhashable value (e.g. a list for a tuple)
         return _scene_for.__wrapped__(shape, config.finger, config.motion)
+    if len(_by_identity) >= 64:
+        _by_identity.clear()
+    _by_identity[key] = (config.finger, config.motion, found)
+    return found
+
+
+_by_identity: dict[tuple[str, int, int], tuple[Finger, Motion, Scene]] = {}
 
 
 @functools.lru_cache(maxsize=64)

@@ -233,16 +233,11 @@ def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
         force_n=force,
         mark_angle_rad=yaw,  # the marks run along the specimen's y, the ridges along the robot's
     )
-    resting = surface.at(force)
     sc = scene_mod.scene(spec.shape, config)
     qpos = np.zeros(sc.model.nq)
     qi = sc.qpos_index
     preload = force / finger.pdms_normal_stiffness_n_m
-    h0 = float(
-        texture.look_up(
-            np.array([resting.origin_m]), resting.height_m[None], np.array([[s_path[0]]])
-        )[0, 0]
-    )
+    h0 = surface.height_at(force, float(s_path[0]))  # under the resting pad
     qpos[qi["robot_x"]] = x_ref[0]
     qpos[qi["robot_y"]] = y_ref[0]
     qpos[qi["robot_z"]] = h0 - sink - preload  # skin indented, PDMS pre-compressed

@@ -272,6 +272,22 @@ class LoadedSurface:
         slope = self.slope[j] + (self.slope[above] - self.slope[j]) * u
         return FeltSurface(self.origin_m, height, slope)
 
+    def height_at(self, load_n: float, coordinate_m: float) -> float:
+        """The height felt under ``load_n`` at the path coordinate ``coordinate_m``:
+        :func:`look_up` of :meth:`at`'s heights there, from the two grid points around
+        it only (the same bits)."""
+        n = self.height_m.shape[-1]
+        pos = (np.array([[coordinate_m]]) - np.array([self.origin_m])[:, None]) / GRID_M
+        pos = np.clip(pos, 0.0, n - 1.000001)
+        i0 = int(pos.astype(np.intp)[0, 0])
+        w = pos[0, 0] - i0
+        j, u = layer_position(self.loads_n[0], self.loads_n.size, np.array([load_n]))
+        j, u = int(j[0]), float(u[0])
+        above = min(j + 1, self.loads_n.size - 1)
+        below_h = self.height_m[j, i0 : i0 + 2]
+        h = below_h + (self.height_m[above, i0 : i0 + 2] - below_h) * u
+        return float(h[0] * (1.0 - w) + h[1] * w)
+
 
 def as_loaded(surface: FeltSurface | LoadedSurface) -> LoadedSurface:
     """``surface`` as a :class:`LoadedSurface` (a :class:`FeltSurface` as one layer)."""

@@ -53,6 +53,27 @@ def test_the_compiled_texture_look_ups_give_the_tables_bits():
         _extrapolated(layered, np.array([np.nan, 0, 0, 0]), np.zeros(4), ahead, np.ones(4))
 
 
+def test_height_at_reads_the_loaded_surface_as_look_up_reads_it():
+    """``LoadedSurface.height_at`` gives the bits of ``look_up`` on ``at(load)``'s whole
+    profile: under loads between, on and beyond the layers, inside and past the ends,
+    for a layered and a fixed surface."""
+    finger = SynthConfig().finger
+    texture = synth.materials.MATERIALS["wood"].texture
+    layered = synth.texture.loaded_surface(
+        texture, finger, 0.0, 0.004, np.random.default_rng(3), force_n=1.0
+    )
+    fixed = synth.texture.LoadedSurface.fixed(layered.at(1.0))
+    rng = np.random.default_rng(4)
+    for surface in (layered, fixed):
+        for load in (0.2, 0.5, 0.77, 1.0, 1.9, 2.0, 3.0):
+            for s in (*rng.uniform(-0.002, 0.006, 6), layered.origin_m):
+                felt = surface.at(load)
+                want = synth.texture.look_up(
+                    np.array([felt.origin_m]), felt.height_m[None], np.array([[s]])
+                )[0, 0]
+                assert surface.height_at(load, float(s)) == want
+
+
 def test_the_compiled_controls_give_their_numpy_forms_bits():
     rng = np.random.default_rng(5)
     b, k, mx, mz = 6, 4, 21, 29
