@@ -224,6 +224,23 @@ class ClosedLoop:
         (the rest of the run's time is its set-up and the controller's and the surface's
         work between periods), for profiling. MuJoCo runs without its profiling timers
         (:func:`timers_off`)."""
+        sens, heights = self.run_periods(datas, initial_state, steps, nthread, record_qpos)
+        return trial_major(sens), heights
+
+    def run_periods(
+        self,
+        datas: Sequence[mujoco.MjData],
+        initial_state: np.ndarray,
+        steps: int,
+        nthread: int,
+        record_qpos: bool = False,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`run`, with the sensors as MuJoCo wrote them: period-major,
+        ``(steps // k, b, k, nsensordata)`` for the update period of ``k`` steps
+        (:func:`trial_major` turns them trial-major). The simulator's sensor chain reads
+        them so; a trial-major copy written period by period costs the closed loop more
+        than the rest of its work between periods (each period's block lands on pages
+        far apart that the physics has evicted from the caches)."""
         with timers_off():
             return self._run(datas, initial_state, steps, nthread, record_qpos)
 
@@ -246,11 +263,10 @@ class ClosedLoop:
         b, base = self.b, self.models[0]
         nstate, nsens = initial_state.shape[1], base.nsensordata
         lay, cols = self.layout, self.cols
-        # Rollout writes each period's sensors into a small buffer that stays in the
-        # cache; they are copied from there into the trial-major outputs, (b, steps, ...).
-        sens_out = np.empty((b, nseg, k, nsens))
+        # Rollout writes each period's sensors straight into its contiguous block of a
+        # period-major buffer; the specimen's heights (small) go trial-major.
+        sens_out = np.empty((nseg, b, k, nsens))
         height_out = np.empty((b, nseg, k))
-        sens = np.empty((b, k, nsens))
         h = np.empty((b, k))
         control = np.zeros((b, k, lay["size"].stop))
         state_buf = np.empty((b, k, nstate))
@@ -332,10 +348,10 @@ class ClosedLoop:
             kernels.controls(
                 h, slope, normal, xy_seg[:, g], self.z_ref, direction, lever, mx, mz, control
             )
+            sens = sens_out[g]
             t0 = time.perf_counter()
             runner.rollout(self.models, datas, k, spec, state, warm, control, state_buf, sens, None)
             self.rollout_s_ += time.perf_counter() - t0
-            sens_out[:, g] = sens
             if qpos_out is not None:
                 qpos_out[:, g] = state_buf[:, :, 1 : 1 + self.nq]
             # A trial went unstable: the caller reports it; the rest is not needed. The
@@ -367,7 +383,7 @@ class ClosedLoop:
                 self.pieces.update(sens[:, k - 1, c_pad])
         if qpos_out is not None:
             self.qpos_ = qpos_out.reshape(b, steps, self.nq)
-        return sens_out.reshape(b, steps, nsens), height_out.reshape(b, steps)
+        return sens_out, height_out.reshape(b, steps)
 
 
 def _warning_names(datas: Sequence[mujoco.MjData]) -> tuple[str, ...]:
@@ -385,3 +401,10 @@ def _extend(ref: np.ndarray, n: int) -> np.ndarray:
         return ref
     step = ref[-1] - ref[-2]
     return np.concatenate([ref, ref[-1] + step * np.arange(1, extra + 1)])
+
+
+def trial_major(periods: np.ndarray) -> np.ndarray:
+    """Period-major sensors ``(periods, b, k, ...)`` as one contiguous trial-major array
+    ``(b, periods * k, ...)``."""
+    t = np.moveaxis(periods, 1, 0)
+    return np.ascontiguousarray(t).reshape(t.shape[0], t.shape[1] * t.shape[2], *t.shape[3:])

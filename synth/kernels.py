@@ -432,20 +432,22 @@ def mechanics(
     indentation,
     traction,
 ):
-    """The mechanics the sensor chain reads, from the sensors ``sens`` ``(b, n, ...)`` at
-    columns ``cols`` (contact, pad position, contact depth, mount force, mount torque):
-    the contact ``force`` ``(b, n, 3)`` (0 without a contact), the mount's force and
-    torque turned from the rocking pad's frame into the phalanx's (by the pad's pitch,
-    the sensors' column ``pitch_col``), how far the contact centre lies ahead of
-    the pad along the path ``direction`` ``(b, 2)``, the skin's indentation (the
-    deepest penetration, 0 without one) and the traction along the path
-    (:func:`synth.simulator._process`'s mechanics)."""
+    """The mechanics the sensor chain reads, from the sensors ``sens``, period-major
+    ``(periods, b, k, ...)`` (step ``t`` of trial ``i`` at ``[t // k, i, t % k]``; a
+    trial-major ``(b, n, ...)`` array is ``sens[None]``), at columns ``cols`` (contact,
+    pad position, contact depth, mount force, mount torque): the contact ``force`` ``(b,
+    n, 3)`` (0 without a contact), the mount's force and torque turned from the rocking
+    pad's frame into the phalanx's (by the pad's pitch, the sensors' column
+    ``pitch_col``), how far the contact centre lies ahead of the pad along the path
+    ``direction`` ``(b, 2)``, the skin's indentation (the deepest penetration, 0 without
+    one) and the traction along the path (:func:`synth.simulator._process`'s
+    mechanics)."""
     c_contact, c_pad, c_depth, c_force, c_torque = cols[0], cols[1], cols[2], cols[3], cols[4]
-    b, n = sens.shape[0], sens.shape[1]
+    periods, b, per = sens.shape[0], sens.shape[1], sens.shape[2]
     for i in range(b):
         dx, dy = direction[i, 0], direction[i, 1]
-        for t in range(n):
-            row = sens[i, t]
+        for t in range(periods * per):
+            row = sens[t // per, i, t % per]
             found = row[c_contact] > 0
             for a in range(3):
                 force[i, t, a] = row[c_contact + 1 + a] if found else 0.0

@@ -338,16 +338,22 @@ def _roll(
 
 
 def _roll_loop(
-    plans: Sequence[Plan], datas: list[mujoco.MjData], config: SynthConfig
+    plans: Sequence[Plan],
+    datas: list[mujoco.MjData],
+    config: SynthConfig,
+    periods: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, ClosedLoop]:
-    """:func:`_roll`, also returning the loop that ran (its ``rollout_s_`` for profiling)."""
+    """:func:`_roll`, also returning the loop that ran (its ``rollout_s_`` for profiling);
+    with ``periods`` the sensors come period-major, as
+    :meth:`synth.closed_loop.ClosedLoop.run_periods` returns them."""
     for d in datas:
         mujoco.mj_resetData(plans[0].model, d)
     loop = ClosedLoop(
         [p.model for p in plans], [p.loop for p in plans], config, shape=plans[0].spec.shape
     )
     steps = max(p.steps for p in plans)
-    sens, heights = loop.run(datas, _initial_states(plans), steps, len(datas))
+    run = loop.run_periods if periods else loop.run
+    sens, heights = run(datas, _initial_states(plans), steps, len(datas))
     _check_stable(loop, plans, datas, config)
     return sens, heights, loop
 
@@ -376,12 +382,17 @@ _MECHANICS_COLUMNS = ("contact", "pad_pos", "contact_depth", "mount_force", "mou
 def _process(
     plans: Sequence[Plan], sens: np.ndarray, heights: np.ndarray, config: SynthConfig
 ) -> list[Trial]:
+    """The trials of a batch's physics: ``sens`` the sensors, trial-major ``(b, steps,
+    nsensordata)`` or period-major ``(periods, b, k, nsensordata)`` as
+    :meth:`synth.closed_loop.ClosedLoop.run_periods` returns them; ``heights`` ``(b,
+    steps)``."""
+    if sens.ndim == 3:  # trial-major: one period of all the steps
+        sens = sens[None]
     cols = scene_mod.sensor_columns()
     k = steps_per_sample(config)
     fs = SAMPLE_RATE_HZ * k
-    contact_data = sens[..., cols["contact"]]
-    pad_pos = sens[..., cols["pad_pos"]]
-    b, n = sens.shape[:2]
+    _, b, per, _ = sens.shape
+    n = heights.shape[1]
     force = np.empty((b, n, 3))
     mech = sensors.Mechanics(
         mount_force=np.empty((b, n, 3)),
@@ -421,27 +432,29 @@ def _process(
         dc_coupled=np.array([0.0, 0.0, 1.0, 1.0]),  # PVDF AC-coupled, strain gauges DC
         amplifier_noise_v=sensors.amplifier_noise_v(config),
     )
-    slip = sens[..., cols["slip_vel"]]
     trials = []
     for i, p in enumerate(plans):
         at = idx[i]
         f = force[i, at]
+        row = sens[at // per, i, at % per]  # the sensors at the samples (N_SAMPLES, ...)
+        pad_pos = row[:, cols["pad_pos"]]
+        slip = row[:, cols["slip_vel"]]
         truth = {
             "time_s": at * config.motion.timestep_s,
             "normal_force_n": -f[:, 2],
             "tangential_force_n": np.hypot(f[:, 0], f[:, 1]),
             "friction_force_x_n": f[:, 0],
             "lateral_force_n": f[:, 1],
-            "finger_x_m": pad_pos[i, at, 0],
-            "finger_y_m": pad_pos[i, at, 1],
-            "finger_z_m": pad_pos[i, at, 2] - config.finger.pad_radius_m,
+            "finger_x_m": pad_pos[:, 0],
+            "finger_y_m": pad_pos[:, 1],
+            "finger_z_m": pad_pos[:, 2] - config.finger.pad_radius_m,
             "commanded_x_m": p.loop.x_ref[at],
-            "slip_speed_m_s": np.hypot(slip[i, at, 0], slip[i, at, 1]),
+            "slip_speed_m_s": np.hypot(slip[:, 0], slip[:, 1]),
             "indentation_m": mech.indentation_m[i, at],
-            "contacts": contact_data[i, at, 0],
+            "contacts": row[:, cols["contact"].start],
             "specimen_z_m": heights[i, at],
         }
-        _check_trial(p, truth, sens[i])
+        _check_trial(p, truth, sens[:, i])
         truth = {name: np.ascontiguousarray(v) for name, v in truth.items()}
         trials.append(Trial(spec=p.spec, signals=volts[i].astype(np.float32), truth=truth))
     return trials
@@ -529,7 +542,8 @@ def simulate_batch(
             base = scene_mod.scene(shape, config).model
             datas[shape] = [mujoco.MjData(base) for _ in range(threads)]
         plans = [plan(specs[i], config) for i in chunk]
-        return plans, _roll(plans, datas[shape][: len(chunk)], config)
+        sens, heights, _ = _roll_loop(plans, datas[shape][: len(chunk)], config, periods=True)
+        return plans, (sens, heights)
 
     # Pipeline: MuJoCo rolls the next chunk out in its C++ threads (GIL released) while
     # this thread turns the previous chunk's physics into signals.
