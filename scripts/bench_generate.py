@@ -9,7 +9,8 @@ For each execution mode it generates the preset into a temporary store and repor
 time, CPU time (this process + its worker processes), trials/s and the peak RSS of the
 main process and of the largest worker. It times the simulator's raw rollout of the same
 scenes (``synth.simulator.raw_rollout``: physics only, no sensor chain, no storage) on the
-same cores before the first round and after every round, and compares each generation
+same cores (MuJoCo's C++ rollout without its profiling timers, as the simulator runs
+it) before the first round and after every round, and compares each generation
 with the mean of the raw runs on either side of its round (``--repeat N`` rounds: the
 medians are reported). The machine may be shared: its speed drifts over minutes.
 """
@@ -200,7 +201,7 @@ def main(argv: list[str] | None = None) -> int:
             f"per trial, {m['time_ratio']:.2f}x the raw rollout's time"
         )
     print(
-        f"raw mujoco.rollout, same scenes: {trials} trials in "
+        f"raw rollout (MuJoCo's C++ rollout), same scenes: {trials} trials in "
         f"{', '.join(f'{w:.1f}' for w in results['raw']['wall_s_runs'])} s wall, "
         f"{results['raw']['cpu_s'] / trials * 1e3:.1f} ms CPU per trial in the rollout calls "
         f"(median); generation ({best}) takes {results['time_ratio']:.2f}x the raw physics' time"
