@@ -522,3 +522,20 @@ def film_strains(
                     centre - half, delta, radius
                 )
                 out[i, f, t] = neg_offset * rise / length - shear * traction[i, t]
+
+
+@numba.njit(cache=True, nogil=True)
+def finite_trials(sens, out):
+    """``out[i]``: every value of trial ``i`` in the period-major sensors ``sens``
+    ``(periods, b, k, ...)`` is finite (``np.isfinite(sens[:, i]).all()``)."""
+    periods, b = sens.shape[0], sens.shape[1]
+    for i in range(b):
+        out[i] = True
+    for g in range(periods):
+        for i in range(b):
+            if out[i]:
+                block = sens[g, i].ravel()
+                for j in range(block.size):
+                    if not math.isfinite(block[j]):
+                        out[i] = False
+                        break

@@ -432,13 +432,19 @@ def _process(
         dc_coupled=np.array([0.0, 0.0, 1.0, 1.0]),  # PVDF AC-coupled, strain gauges DC
         amplifier_noise_v=sensors.amplifier_noise_v(config),
     )
+    finite = np.empty(b, dtype=bool)
+    kernels.finite_trials(sens, finite)
+    # The sensors the trials' truth reads, at their samples: the pad's position, the
+    # slip velocity's x and y, the contacts found.
+    read = np.r_[cols["pad_pos"], cols["slip_vel"].start, cols["slip_vel"].start + 1]
+    read = np.r_[read, cols["contact"].start]
     trials = []
     for i, p in enumerate(plans):
         at = idx[i]
         f = force[i, at]
-        row = sens[at // per, i, at % per]  # the sensors at the samples (N_SAMPLES, ...)
-        pad_pos = row[:, cols["pad_pos"]]
-        slip = row[:, cols["slip_vel"]]
+        row = sens[(at // per)[:, None], i, (at % per)[:, None], read]  # (N_SAMPLES, 6)
+        pad_pos = row[:, :3]
+        slip = row[:, 3:5]
         truth = {
             "time_s": at * config.motion.timestep_s,
             "normal_force_n": -f[:, 2],
@@ -451,17 +457,20 @@ def _process(
             "commanded_x_m": p.loop.x_ref[at],
             "slip_speed_m_s": np.hypot(slip[:, 0], slip[:, 1]),
             "indentation_m": mech.indentation_m[i, at],
-            "contacts": row[:, cols["contact"].start],
+            "contacts": row[:, 5],
             "specimen_z_m": heights[i, at],
         }
-        _check_trial(p, truth, sens[:, i])
+        _check_trial(p, truth, bool(finite[i]))
         truth = {name: np.ascontiguousarray(v) for name, v in truth.items()}
         trials.append(Trial(spec=p.spec, signals=volts[i].astype(np.float32), truth=truth))
     return trials
 
 
-def _check_trial(p: Plan, truth: dict[str, np.ndarray], sens: np.ndarray) -> None:
-    if not np.all(np.isfinite(sens)):
+def _check_trial(p: Plan, truth: dict[str, np.ndarray], finite: bool) -> None:
+    """Raise :class:`SimulationError` for a trial whose physics went wrong: a non-finite
+    sensor value (``finite`` False), a contact lost for longer than
+    ``MAX_CONTACT_GAP_S`` in its window, or a finger stuck behind its path."""
+    if not finite:
         raise SimulationError(f"non-finite physics (NaN/inf) while simulating {_describe(p.spec)}")
     gap, where = _longest_run(truth["contacts"] < 1)
     if gap / SAMPLE_RATE_HZ > MAX_CONTACT_GAP_S:

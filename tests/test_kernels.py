@@ -249,6 +249,19 @@ def test_store_at_writes_each_value_into_its_own_buffer():
         assert np.array_equal(m.geom_friction, old)
 
 
+def test_finite_trials_flags_every_trial_with_a_nan_or_an_infinity():
+    rng = np.random.default_rng(23)
+    sens = rng.normal(size=(7, 5, 4, 6))  # periods, trials, steps, sensors
+    sens[0, 1, 0, 0] = np.nan
+    sens[6, 3, 3, 5] = np.inf
+    sens[3, 4, 2, 1] = -np.inf
+    sens[2, 0, 1, 2] = 1e308  # large, finite
+    out = np.ones(5, dtype=bool)
+    kernels.finite_trials(sens, out)
+    want = np.isfinite(np.moveaxis(sens, 1, 0)).reshape(5, -1).all(axis=1)
+    assert np.array_equal(out, want) and want.tolist() == [True, False, True, False, False]
+
+
 def test_the_compiled_film_strains_give_their_numpy_forms_bits():
     """The films' strains as numpy expressions of ``contact.surface_slope`` give them:
     films inside, across and outside the contact, no contact, a contact centred on a

@@ -882,6 +882,21 @@ def test_the_raw_rollout_times_only_its_rollout_calls():
     assert 0.0 < cpu < total_cpu
 
 
+def test_a_non_finite_sensor_value_fails_its_trial_by_name():
+    """A NaN anywhere in a trial's physics, even outside its window, fails that trial
+    with a message naming it; the sensors period-major and trial-major alike."""
+    config = SynthConfig()
+    plans = [sim.plan(TrialSpec("circle", "wood", seed=s), config) for s in (1, 2)]
+    datas = [mujoco.MjData(plans[0].model)]
+    periods, heights, _ = sim._roll_loop(plans, datas, config, periods=True)
+    assert len(sim._process(plans, periods, heights, config)) == 2
+    periods[0, 1, 0, 0] = np.nan  # trial 1's first step, long before its window
+    with pytest.raises(sim.SimulationError, match=r"non-finite physics .*seed=2"):
+        sim._process(plans, periods, heights, config)
+    with pytest.raises(sim.SimulationError, match=r"non-finite physics .*seed=2"):
+        sim._process(plans, synth.closed_loop.trial_major(periods), heights, config)
+
+
 def test_mujoco_runs_without_its_timers_and_gets_the_callers_clock_back():
     """While the simulator and the raw rollout run, MuJoCo's timer callback is the
     no-op clock (a clock of the caller's is not called); afterwards it is the caller's
