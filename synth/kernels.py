@@ -534,8 +534,10 @@ def finite_trials(sens, out):
     for g in range(periods):
         for i in range(b):
             if out[i]:
+                # x - x is 0 for a finite x and NaN for a NaN or an infinity: an "or"
+                # over the block without a branch per value (a vectorised loop).
                 block = sens[g, i].ravel()
+                bad = False
                 for j in range(block.size):
-                    if not math.isfinite(block[j]):
-                        out[i] = False
-                        break
+                    bad |= (block[j] - block[j]) != 0.0
+                out[i] = not bad

@@ -438,11 +438,13 @@ def _process(
     # slip velocity's x and y, the contacts found.
     read = np.r_[cols["pad_pos"], cols["slip_vel"].start, cols["slip_vel"].start + 1]
     read = np.r_[read, cols["contact"].start]
+    flat = sens.reshape(-1, sens.shape[-1])
     trials = []
     for i, p in enumerate(plans):
         at = idx[i]
         f = force[i, at]
-        row = sens[(at // per)[:, None], i, (at % per)[:, None], read]  # (N_SAMPLES, 6)
+        # The rows of the samples' steps in the sensors seen as (periods * b * k, n).
+        row = flat.take((at // per) * (b * per) + i * per + at % per, axis=0)[:, read]
         pad_pos = row[:, :3]
         slip = row[:, 3:5]
         truth = {
