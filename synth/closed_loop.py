@@ -112,12 +112,13 @@ def timers_off() -> Iterator[None]:
     ``mjcb_time`` callback is a clock that reads 0 (:func:`synth.kernels.no_time`).
 
     MuJoCo reads that clock at the start and end of every stage of every step to fill
-    ``mjData.timer``; the steady clock MuJoCo's Python bindings install there costs
-    about a tenth of the physics' time on a virtual machine, and nothing in the package
-    reads the timers. The callback is process-wide, so nested and concurrent callers
-    (a generation's chunks on threads) share one switch; the last one out puts the
-    previous callback back (none, if it was the bindings' own clock, which they install
-    again with the next ``MjData``). The physics does not depend on the timers.
+    ``mjData.timer``; the steady clock MuJoCo's Python bindings install there is read
+    dozens of times per step, a share of the physics' time worth saving where reading a
+    clock is slow (a virtual machine's), and nothing in the package reads the timers.
+    The callback is process-wide, so nested and concurrent callers (a generation's
+    chunks on threads) share one switch; the last one out puts the previous callback
+    back (none, if it was the bindings' own clock, which they install again with the
+    next ``MjData``). The physics does not depend on the timers.
     """
     global _timers_users, _timers_saved
     with _timers_lock:
@@ -190,9 +191,13 @@ class ClosedLoop:
             else pieces_mod.piece_contacts(shape, self.models, config.finger.pad_radius_m)
         )
 
-    def friction(self, slip_speed: np.ndarray, normal_n: np.ndarray) -> np.ndarray:
-        """Coefficient of each trial's law at its slip speed and normal load."""
-        out = np.empty(self.b)
+    def friction(
+        self, slip_speed: np.ndarray, normal_n: np.ndarray, out: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Coefficient of each trial's law at its slip speed and normal load (into
+        ``out`` ``(b,)`` if given)."""
+        if out is None:
+            out = np.empty(self.b)
         kernels.friction_law(
             slip_speed,
             normal_n,
@@ -238,9 +243,8 @@ class ClosedLoop:
         """:meth:`run`, with the sensors as MuJoCo wrote them: period-major,
         ``(steps // k, b, k, nsensordata)`` for the update period of ``k`` steps
         (:func:`trial_major` turns them trial-major). The simulator's sensor chain reads
-        them so; a trial-major copy written period by period costs the closed loop more
-        than the rest of its work between periods (each period's block lands on pages
-        far apart that the physics has evicted from the caches)."""
+        them so: a trial-major copy written period by period would put each period's
+        block on pages far apart, which the physics evicts from the caches in between."""
         with timers_off():
             return self._run(datas, initial_state, steps, nthread, record_qpos)
 
@@ -329,17 +333,7 @@ class ClosedLoop:
                 wrist_sum[:] = 0.0
                 self.z_ref += mot.control_period_s * self.gain * (wrist - self.force)
             # Friction from the simulated slip and load.
-            kernels.friction_law(
-                slip_speed,
-                normal,
-                self.kinetic,
-                self.static_excess,
-                self.v_stribeck,
-                self.load_exp,
-                self.scale,
-                mu,
-            )
-            kernels.store_at(friction_at, mu)
+            kernels.store_at(friction_at, self.friction(slip_speed, normal, mu))
             # Texture under the contact, extrapolated over the period, as felt by the
             # ridges inside the contact the simulated load makes; the specimen's heights
             # go straight to the output.
