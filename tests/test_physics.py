@@ -911,9 +911,10 @@ def test_mujoco_runs_without_its_timers_and_gets_the_callers_clock_back():
         calls.append(1)
         return 0.0
 
+    spec = TrialSpec("circle", "wood", seed=3)
+    model = sim.plan(spec, SynthConfig()).model  # the scene compiled (MuJoCo steps it then)
     mujoco.set_mjcb_time(clock)
     try:
-        spec = TrialSpec("circle", "wood", seed=3)
         sim.simulate_batch([spec], threads=1)
         sim.raw_rollout_times([spec], threads=1)
         assert calls == []
@@ -923,8 +924,8 @@ def test_mujoco_runs_without_its_timers_and_gets_the_callers_clock_back():
                 pass
             assert mujoco.get_mjcb_time() is not clock
         assert mujoco.get_mjcb_time() is clock
-        data = mujoco.MjData(sim.plan(spec, SynthConfig()).model)
-        mujoco.mj_step(data.model, data)
+        data = mujoco.MjData(model)
+        mujoco.mj_step(model, data)
         assert calls  # the caller's clock runs outside the simulator
     finally:
         mujoco.set_mjcb_time(None)
