@@ -169,8 +169,8 @@ def _add_scaled(acc, w, x):
 
 @numba.njit(cache=True, nogil=True)
 def felt_layers(profiles, whole, frac, rough_weights, mark_weights, totals, dx, heights, slopes):
-    """A loaded surface's layers (:func:`synth.texture.loaded_surface`) in one pass over
-    the grid, without a copy of the profiles per ridge.
+    """A loaded surface's layers (:func:`synth.texture.loaded_surface`) in one call,
+    without a shifted copy of every profile per ridge.
 
     ``profiles`` ``(1 + k, n)``: the roughness and the ``k`` periodic marks on the grid.
     Ridge ``r`` reads each profile ``whole[r] + frac[r]`` cells further on, by linear
