@@ -232,6 +232,7 @@ class ClosedLoop:
         sens, heights = self.run_periods(datas, initial_state, steps, nthread, record_qpos)
         return trial_major(sens), heights
 
+    @timers_off()
     def run_periods(
         self,
         datas: Sequence[mujoco.MjData],
@@ -245,17 +246,6 @@ class ClosedLoop:
         (:func:`trial_major` turns them trial-major). The simulator's sensor chain reads
         them so: a trial-major copy written period by period would put each period's
         block on pages far apart, which the physics evicts from the caches in between."""
-        with timers_off():
-            return self._run(datas, initial_state, steps, nthread, record_qpos)
-
-    def _run(
-        self,
-        datas: Sequence[mujoco.MjData],
-        initial_state: np.ndarray,
-        steps: int,
-        nthread: int,
-        record_qpos: bool,
-    ) -> tuple[np.ndarray, np.ndarray]:
         cfg = self.config
         mot = cfg.motion
         dt, k = mot.timestep_s, mot.surface_steps
