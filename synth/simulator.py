@@ -436,8 +436,8 @@ def _process(
     kernels.finite_trials(sens, finite)
     # The sensors the trials' truth reads, at their samples: the pad's position, the
     # slip velocity's x and y, the contacts found.
-    read = np.r_[cols["pad_pos"], cols["slip_vel"].start, cols["slip_vel"].start + 1]
-    read = np.r_[read, cols["contact"].start]
+    slip_x, found = cols["slip_vel"].start, cols["contact"].start
+    read = np.r_[cols["pad_pos"], slip_x, slip_x + 1, found]
     flat = sens.reshape(-1, sens.shape[-1])
     trials = []
     for i, p in enumerate(plans):

@@ -359,9 +359,10 @@ def loaded_surface(
     rough = _over_ridge_width(finger, rough, marks)
     n = rough.size
     # What each ridge is under: every profile read offset / GRID_M cells further on.
-    cells = [o / GRID_M for o in offsets.tolist()]
-    whole = np.array([math.floor(c) for c in cells], dtype=np.intp)
-    frac = np.array([c - math.floor(c) for c in cells])
+    cells = np.array([o / GRID_M for o in offsets.tolist()])
+    whole = np.floor(cells)
+    frac = cells - whole
+    whole = whole.astype(np.intp)
     wavelengths = np.array([c.wavelength_m for c in texture.periodic])
     rough_weights = np.empty((radii.size, offsets.size))
     mark_weights = np.empty((radii.size, offsets.size * wavelengths.size))
