@@ -279,7 +279,7 @@ def check_resume_target(out: Path, *, repair: bool = False) -> None:
 def _has_meta(path: Path) -> bool:
     """A store whose creation finished (it has its ``tactile_synth`` attributes)."""
     try:
-        store._read_meta(path)
+        store.read_meta(path)
     except (OSError, ValueError):
         return False
     return True

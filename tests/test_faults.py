@@ -24,7 +24,7 @@ import zarr
 
 import synth.generation as generation
 from benchmark.cli import main
-from synth import GenerationConfig, SimulationError, load_dataset, store
+from synth import GenerationConfig, SimulationError, atomic, load_dataset, store
 from synth.presets import plan
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -146,7 +146,7 @@ def test_second_writer_fails_at_once_naming_the_holder(tmp_path):
     )
     try:
         deadline = time.monotonic() + 60
-        while not store.is_store(out) or not store.atomic.sibling(out, "lock").exists():
+        while not store.is_store(out) or not atomic.sibling(out, "lock").exists():
             assert holder.poll() is None and time.monotonic() < deadline, "holder never started"
             time.sleep(0.02)
         t0 = time.monotonic()
@@ -167,7 +167,7 @@ def test_second_writer_fails_at_once_naming_the_holder(tmp_path):
     data = load_dataset(out)  # complete, checked, and all the holder's (seed 0)
     np.testing.assert_array_equal(data.seed, plan(tiny()).seed)
     assert data.attrs["config"]["seed"] == 0
-    assert not store.atomic.sibling(out, "lock").exists()  # released and cleaned up
+    assert not atomic.sibling(out, "lock").exists()  # released and cleaned up
 
 
 def test_a_task_never_writes_into_a_store_that_was_replaced(complete, tmp_path):
@@ -323,7 +323,7 @@ def test_overwrite_failing_halfway_keeps_the_old_dataset(complete, capsys):
     # a fresh --overwrite copes with the leftover replacement
     make(out, FakeSimulator(), config=tiny(seed=1), overwrite=True)
     assert load_dataset(out).attrs["config"]["seed"] == 1
-    assert not pending.exists() and not store.atomic.sibling(out, "old").exists()
+    assert not pending.exists() and not atomic.sibling(out, "old").exists()
 
 
 def test_overwrite_refused_by_the_real_simulator_keeps_the_old_dataset(
@@ -365,7 +365,7 @@ def test_interrupted_overwrite_leaves_the_old_dataset_and_resumes_into_place(
 @pytest.mark.parametrize("pending_complete", [True, False])
 def test_a_swap_killed_between_its_renames_is_finished(tmp_path, pending_complete):
     out = make(tmp_path / "ds")
-    pending, old = store.pending_path(out), store.atomic.sibling(out, "old")
+    pending, old = store.pending_path(out), atomic.sibling(out, "old")
     if pending_complete:
         make(tmp_path / "new", config=tiny(seed=3))
     else:

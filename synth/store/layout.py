@@ -1,0 +1,113 @@
+"""The store's layout constants, the versions a store records, and where its files and
+its writer's lock and pending replacement live."""
+
+from __future__ import annotations
+
+import importlib.metadata
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import atomic
+from ..trial import CHANNELS, N_SAMPLES
+
+#: Bumped whenever the layout above changes incompatibly or the simulator writes other
+#: signals for the same configuration (a store is only resumed by the simulator that
+#: started it).
+FORMAT_VERSION: int = 9
+ATTR_KEY = "tactile_synth"
+#: The two kinds of store (attribute ``kind``; a store without it is simulated).
+KIND_SIMULATED = "simulated"
+KIND_IMPORTED = "imported"
+PLAN_DTYPES = {
+    "label": "int16",
+    "condition": "int16",
+    "trial_index": "int32",
+    "force_n": "float64",
+    "speed_mm_s": "float64",
+    "seed": "int64",
+}
+PLAN_ARRAYS = tuple(PLAN_DTYPES)
+#: Uncompressed bytes of one trial's signals (float32, 4 channels).
+TRIAL_BYTES: int = 4 * len(CHANNELS) * N_SAMPLES
+
+
+def package_version() -> str:
+    try:
+        return importlib.metadata.version("tactile-synth")
+    except importlib.metadata.PackageNotFoundError:  # pragma: no cover - source checkout
+        return "unknown"
+
+
+def versions() -> dict[str, str]:
+    """The versions a store records (a store's data depend on the first two)."""
+    import mujoco
+    import zarr
+
+    return {
+        "package_version": package_version(),
+        "mujoco_version": mujoco.__version__,
+        "zarr_version": zarr.__version__,
+        "numpy_version": np.__version__,
+    }
+
+
+def writer_mismatch(meta: dict[str, Any]) -> list[str]:
+    """How the versions that wrote a store differ from this installation's (tactile-synth
+    and MuJoCo decide the bytes of every chunk); empty if they agree."""
+    now = versions()
+    out = []
+    for key, name in (("package_version", "tactile-synth"), ("mujoco_version", "MuJoCo")):
+        if meta.get(key) != now[key]:
+            out.append(f"{name} {meta.get(key)} there, {now[key]} here")
+    return out
+
+
+def is_store(path: Path) -> bool:
+    """True if ``path`` is a Zarr group directory (a tactile-synth store or a half-created one)."""
+    return (Path(path) / "zarr.json").is_file()
+
+
+def enclosing_store(path: str | Path, *, itself: bool = False) -> Path | None:
+    """The store that holds ``path`` below its root (one of its arrays, or anything
+    further down), or with ``itself`` also the store that ``path`` is, if any: a dataset
+    or a file written there would replace part of that store. An array's directory has
+    its own ``zarr.json``, so the outermost one is the store."""
+    p = Path(os.path.abspath(path))
+    stores = [q for q in ((p,) if itself else ()) + tuple(p.parents) if is_store(q)]
+    return stores[-1] if stores else None
+
+
+def check_not_inside_a_store(
+    out: str | Path, *, itself: bool = False, advice: str = "choose a path outside it"
+) -> None:
+    """A one-line ``ValueError`` naming ``--out`` (ending with ``advice``) if ``out`` lies
+    inside another dataset store (or, with ``itself``, is one), where writing (or
+    replacing with ``--overwrite``) would damage that store."""
+    inside = enclosing_store(out, itself=itself)
+    if inside is not None:
+        raise ValueError(f"--out {out} lies inside the dataset {inside}; {advice}")
+
+
+def existing_parent(path: str | Path) -> Path:
+    """The nearest existing directory at or above ``path`` (where a new file there would
+    live: its free disk space is what a write to ``path`` can use)."""
+    p = Path(os.path.abspath(path))
+    while not p.exists():
+        p = p.parent
+    return p if p.is_dir() else p.parent
+
+
+def pending_path(path: str | Path) -> Path:
+    """Where a replacement of ``path`` is built (``--overwrite``) before it is renamed into
+    place: a hidden sibling, ``.<name>.tactile-synth-new``."""
+    return atomic.sibling(path, "new")
+
+
+def chunk_file(path: Path, name: str, chunk: int) -> Path:
+    """The file holding chunk ``chunk`` of array ``name`` (zarr v3 default chunk keys)."""
+    if name == "signals":
+        return path / name / "c" / str(chunk) / "0" / "0"
+    return path / name / "c" / str(chunk)
