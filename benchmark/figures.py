@@ -64,7 +64,7 @@ DPI = 120
 HEATMAP_COLUMNS = 4
 
 
-def _save(fig: plt.Figure, path: str | Path) -> Path:
+def save_figure(fig: plt.Figure, path: str | Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=DPI, bbox_inches="tight")
@@ -95,7 +95,7 @@ def dscan_curve(dscan: Mapping[str, Sequence[float]], chosen_d: int, path: str |
     ax.set_title("AFOP-ML D-scan (closed-set training data)")
     ax.grid(alpha=0.3)
     ax.legend(loc="lower right", fontsize=8)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def generalisation_curves(records: Sequence[dict], path: str | Path) -> Path:
@@ -136,7 +136,7 @@ def generalisation_curves(records: Sequence[dict], path: str | Path) -> Path:
         fontsize=8,
         bbox_to_anchor=(0.5, -0.08),
     )
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def perturbation_heatmap(
@@ -215,7 +215,7 @@ def perturbation_heatmap(
         ax.set_ylabel("normal force (N)")
         ax.set_title(f"{m}: {way}-way-1-shot accuracy (%)", fontsize=9)
         fig.colorbar(im, ax=ax, fraction=0.046)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def selection_bars(records: Sequence[dict], path: str | Path) -> Path:
@@ -257,7 +257,7 @@ def selection_bars(records: Sequence[dict], path: str | Path) -> Path:
     h2, l2 = ax2.get_legend_handles_labels()
     ax.legend(h1 + h2, l1 + l2, loc="upper left", fontsize=8)
     ax.set_title("AFOP-ML: adaptive D and sensor contributions")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def tsne_scatter(
@@ -309,7 +309,7 @@ def tsne_scatter(
     )
     ax.set_xticks([])
     ax.set_yticks([])
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def example_signals(data: Dataset, path: str | Path) -> Path:

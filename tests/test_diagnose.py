@@ -15,8 +15,8 @@ from benchmark.diagnose import (
     FIGURES,
     JSON_NAME,
     MARKDOWN_NAME,
-    _clean,
     diagnose,
+    json_ready,
     loo_nearest,
     loo_score,
     markdown,
@@ -167,7 +167,7 @@ def test_diagnosis_is_deterministic_and_takes_precomputed_features():
     data = separable(seed=2)
     a = diagnose(data)
     b = diagnose(data, features=extract(data.signals))
-    assert json.dumps(_clean(a.to_dict())) == json.dumps(_clean(b.to_dict()))
+    assert json.dumps(json_ready(a.to_dict())) == json.dumps(json_ready(b.to_dict()))
     assert np.array_equal(a.spectra.psd_v2_per_hz, b.spectra.psd_v2_per_hz)
 
 
@@ -301,7 +301,7 @@ def test_cli_prints_the_table_and_writes_the_report(tmp_path, capsys):
     result = json.loads((out / JSON_NAME).read_text())
     assert result["n_trials"] == 48 and result["accuracy"]["shape"]["sg"] >= 0.95
     library = diagnose(load_dataset(data), source=str(data)).to_dict()
-    assert result == json.loads(json.dumps(_clean(library)))
+    assert result == json.loads(json.dumps(json_ready(library)))
     with np.load(out / CURVES_NAME, allow_pickle=False) as curves:
         assert curves["sg_mean_v"].shape == (1, 4, 2, N_SAMPLES)
         assert list(curves["psd_materials"]) == list(MATERIAL_NAMES)

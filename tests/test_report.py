@@ -223,7 +223,7 @@ def test_heatmap_and_report_show_every_method(tmp_path, monkeypatch):
         drawn.extend(ax.get_title() for ax in fig.axes if ax.get_visible() and ax.get_title())
         return figures.plt.close(fig)
 
-    monkeypatch.setattr(figures, "_save", save)
+    monkeypatch.setattr(figures, "save_figure", save)
     figures.perturbation_heatmap(rs, tmp_path / "heat.png", methods=names)
     assert [t.split(":")[0] for t in drawn] == names
     text = render(rs, META)
