@@ -54,7 +54,7 @@ from .result import (
     PvdfSpectra,
     SgTraces,
 )
-from .text import describe, fmt, markdown, summary_table
+from .text import describe, markdown, summary_table
 
 __all__ = [
     "CURVES_NAME",
@@ -77,7 +77,6 @@ __all__ = [
     "confusion_counts",
     "describe",
     "diagnose",
-    "fmt",
     "group_columns",
     "json_ready",
     "load_for_diagnosis",
