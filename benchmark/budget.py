@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from models import registry
-from shapes.validation import check_int
+from tactile_synth.validation import check_int
 
 
 def _check_table(table: Mapping[str, int]) -> None:

@@ -7,9 +7,9 @@ import argparse
 import shlex
 import sys
 
-from shapes.validation import int_arg
 from tactile_synth.interrupts import terminate_as_interrupt
 from tactile_synth.threads import HELP as THREADS_HELP
+from tactile_synth.validation import int_arg
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

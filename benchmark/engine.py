@@ -43,9 +43,9 @@ from tqdm.auto import tqdm
 from models import registry
 from models.base import FewShotMethod
 from models.stats import ci95
-from shapes.validation import check_int
 from synth import Dataset
 from synth.presets import parse_condition
+from tactile_synth.validation import check_int
 
 from .budget import EpisodeBudget
 from .episodes import sample_episodes

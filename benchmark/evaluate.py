@@ -29,7 +29,7 @@ import numpy as np
 
 from models.base import FewShotMethod
 from models.stats import ci95
-from shapes.validation import check_int
+from tactile_synth.validation import check_int
 
 from .episodes import EpisodeBatch
 

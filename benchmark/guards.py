@@ -7,10 +7,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from shapes.validation import check_int
 from synth import Dataset, store
 from synth.generation import available_memory, generate
 from synth.presets import NOMINAL_FORCE_N, NOMINAL_SPEED_MM_S
+from tactile_synth.validation import check_int
 
 #: Most episodes per (protocol, way, shot) cell. The 95 % CI half-width of a mean accuracy
 #: is 1.96 * sd / sqrt(episodes) with sd <= 0.5, so at this count it is below 0.31

@@ -37,7 +37,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from shapes.validation import check_int
+from tactile_synth.validation import check_int
 
 if TYPE_CHECKING:
     from synth import Dataset

@@ -22,7 +22,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from types import TracebackType
 
-from synth import atomic, store
+from synth import store
+from tactile_synth import atomic
 
 #: The file that marks a directory as written by tactile-synth.
 MARKER = ".tactile-synth-output"

@@ -38,7 +38,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from shapes.validation import check_choice
+from tactile_synth.validation import check_choice
 
 from .evaluate import EvalResult
 

@@ -20,11 +20,12 @@ from pathlib import Path
 from typing import NamedTuple
 
 from models.registry import METHOD_NAMES
-from shapes.validation import check_int
-from synth import Dataset, atomic
+from synth import Dataset
 from synth.store import versions as store_versions
+from tactile_synth import atomic
 from tactile_synth.threads import describe as describe_threads
 from tactile_synth.threads import settings
+from tactile_synth.validation import check_int
 
 from . import checkpoints
 from .budget import Budget

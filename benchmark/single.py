@@ -6,7 +6,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from models.registry import METHOD_NAMES
-from shapes.validation import check_int
+from tactile_synth.validation import check_int
 
 from . import figures
 from .budget import Budget

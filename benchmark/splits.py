@@ -37,9 +37,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from shapes import SHAPE_NAMES, is_curved
-from shapes.validation import check_choice, check_int
 from synth import MATERIAL_NAMES, Dataset
 from synth.presets import condition_name, parse_condition
+from tactile_synth.validation import check_choice, check_int
 
 __all__ = [
     "CROSS_SHAPE_FOLDS",

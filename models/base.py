@@ -18,7 +18,7 @@ from typing import ClassVar, Self
 
 import numpy as np
 
-from shapes.validation import check_int, check_non_negative, check_positive
+from tactile_synth.validation import check_int, check_non_negative, check_positive
 
 #: The check :meth:`FewShotMethod._check_settings` runs for each kind of setting.
 SETTING_KINDS: dict[str, Callable[[str, object], object]] = {

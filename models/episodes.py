@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from shapes.validation import check_int
+from tactile_synth.validation import check_int
 
 
 @dataclass(frozen=True)

@@ -38,7 +38,7 @@ from scipy import optimize
 from scipy.spatial.distance import squareform
 from threadpoolctl import threadpool_limits
 
-from shapes.validation import check_int
+from tactile_synth.validation import check_int
 
 from .base import NotFittedError
 

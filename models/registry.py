@@ -26,7 +26,7 @@ import zlib
 from collections.abc import Sequence
 from pathlib import Path
 
-from shapes.validation import check_choice
+from tactile_synth.validation import check_choice
 
 from .base import FewShotMethod
 

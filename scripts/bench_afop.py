@@ -23,8 +23,8 @@ import sys
 import time
 from pathlib import Path
 
-from shapes.validation import int_arg
 from tactile_synth import threads
+from tactile_synth.validation import int_arg
 
 
 def _parse() -> argparse.Namespace:
@@ -41,7 +41,7 @@ def _parse() -> argparse.Namespace:
 
 def main() -> None:
     args = _parse()
-    # numpy is loaded already (the option parser's shapes.validation): configure resizes
+    # numpy is loaded already (the option parser's tactile_synth.validation): configure resizes
     # its BLAS pool and sets every pool loaded later.
     threads.configure(threads=args.threads)
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))

@@ -28,7 +28,7 @@ from benchmark import protocols
 from benchmark.protocols.closed_set import columns_for, split_halves
 from models.features import extract
 from models.registry import METHOD_NAMES
-from shapes.validation import int_arg
+from tactile_synth.validation import int_arg
 
 TARGET_EPISODES = 500
 TARGET_S = 20 * 60

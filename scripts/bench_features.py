@@ -31,7 +31,7 @@ import numpy as np  # noqa: E402
 from script_args import description, fail, load_data  # noqa: E402
 
 from models.features import CHANNELS, FEATURE_NAMES, extract  # noqa: E402
-from shapes.validation import int_arg  # noqa: E402
+from tactile_synth.validation import int_arg  # noqa: E402
 
 #: tsfresh calculators with a counterpart in our time-domain statistics (25 per channel).
 TSFRESH_PARAMS: dict = {

@@ -30,9 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
-from shapes.validation import int_arg
 from synth import generate, load_dataset
 from synth.presets import plan, preset
+from tactile_synth.validation import int_arg
 
 MODES = {
     # name: (workers, threads per task)

@@ -46,7 +46,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from shapes.validation import int_arg
+from tactile_synth.validation import int_arg
 
 ROOT = Path(__file__).resolve().parents[1]
 SLOW_TEST = "tests/test_run.py::test_benchmark_all_writes_everything_and_is_deterministic"

@@ -18,8 +18,8 @@ import os
 import subprocess
 import sys
 
-from shapes.validation import int_arg
 from tactile_synth import allocator
+from tactile_synth.validation import int_arg
 
 #: name -> (set-up, timed work): imports are not timed.
 WORK = {

@@ -24,7 +24,7 @@ from benchmark.evaluate import evaluate
 from benchmark.protocols.closed_set import split_halves
 from models.features import extract
 from models.registry import METHOD_NAMES, make_method
-from shapes.validation import int_arg
+from tactile_synth.validation import int_arg
 
 #: Learned attributes that record what a method chose on its training split.
 CHOICES = (

@@ -18,7 +18,7 @@ import sys
 import time
 from pathlib import Path
 
-from shapes.validation import float_arg, int_arg
+from tactile_synth.validation import float_arg, int_arg
 
 
 def main() -> int:

@@ -27,9 +27,9 @@ import time
 
 import synth
 from shapes import SHAPE_NAMES
-from shapes.validation import int_arg
 from synth import simulator
 from synth.trial import TrialSpec
+from tactile_synth.validation import int_arg
 
 
 def main() -> None:

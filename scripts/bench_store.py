@@ -12,7 +12,7 @@ import time
 
 from script_args import description, fail, load_data
 
-from shapes.validation import int_arg
+from tactile_synth.validation import int_arg
 
 
 def best(fn, repeat: int) -> float:

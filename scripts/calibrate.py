@@ -116,9 +116,9 @@ import numpy as np
 
 import synth
 from shapes import SHAPE_NAMES
-from shapes.validation import float_arg, int_arg, parse_number
-from synth.atomic import check_out_dir
 from synth.sensors import film_on_carrier
+from tactile_synth.atomic import check_out_dir
+from tactile_synth.validation import float_arg, int_arg, parse_number
 
 #: Not a configuration field: a factor on every material's texture amplitudes (roughness
 #: and periodic marks), swept to see how much of the materials' signature the texture

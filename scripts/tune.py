@@ -52,7 +52,7 @@ from typing import Any
 
 import numpy as np
 
-from shapes.validation import int_arg
+from tactile_synth.validation import int_arg
 
 ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:

@@ -41,7 +41,7 @@ def _export(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from shapes.export import FORMATS, UNITS, export
-    from shapes.validation import check_choice
+    from tactile_synth.validation import check_choice
 
     fmt = check_choice("--format", args.format, FORMATS)
     unit = check_choice("--unit", args.unit, tuple(UNITS))
@@ -74,7 +74,7 @@ def _naming_out(out: str) -> Iterator[None]:
     """An ``--out`` that cannot be created or written (a missing or read-only place, no
     permission) is the user's input: a one-line ``ValueError`` naming ``--out`` as given,
     not the hidden temporary file that failed. Other errors (a full disk) pass unchanged."""
-    from synth.atomic import NOT_WRITABLE_ERRNOS, not_writable
+    from tactile_synth.atomic import NOT_WRITABLE_ERRNOS, not_writable
 
     # A missing place, or a file where a directory must be, is unusable here as well.
     unusable = (*NOT_WRITABLE_ERRNOS, errno.ENOENT, errno.ENOTDIR, errno.EISDIR)
@@ -90,11 +90,8 @@ def _naming_out(out: str) -> Iterator[None]:
 def _check_out_not_in_a_store(out: str, *, itself: bool = False) -> None:
     """Refuse an ``--out`` that a file blocks or that lies inside a dataset store (or, with
     ``itself``, is a store's own directory) in one line, before anything is built or
-    written. The check is the
-    dataset commands' own, imported here so the shapes package stays independent of
-    the simulator."""
-    from synth.atomic import check_dir_path, check_out_dir
-    from synth.store import check_not_inside_a_store
+    written: the dataset commands' own check."""
+    from tactile_synth.atomic import check_dir_path, check_not_inside_a_store, check_out_dir
 
     # A file standing at the path, or where one of its directories must be.
     if itself:

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
-from shapes.validation import check_positive
+from tactile_synth.validation import check_positive
 
 # Widest outline relative to ``outline_size_m`` (the ellipse: 18 mm at the 16 mm
 # default); used to check that every outline fits on the plate.

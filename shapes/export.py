@@ -8,7 +8,7 @@ from pathlib import Path
 from shapes.dims import SPECIMEN, SpecimenDims
 from shapes.files import new_temp_file
 from shapes.outlines import check_shape
-from shapes.validation import check_choice
+from tactile_synth.validation import check_choice
 
 FORMATS = ("stl", "obj", "step")
 UNITS = {"m": 1.0, "mm": 1000.0}

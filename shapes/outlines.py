@@ -52,7 +52,7 @@ import shapely
 from shapely.geometry import Polygon
 
 from shapes.dims import SPECIMEN, SpecimenDims, check_dims
-from shapes.validation import check_choice
+from tactile_synth.validation import check_choice
 
 SHAPE_NAMES: tuple[str, ...] = (
     "circle",

@@ -13,8 +13,8 @@ from typing import Any
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    from shapes.validation import float_arg, int_arg
     from tactile_synth.threads import HELP as THREADS_HELP
+    from tactile_synth.validation import float_arg, int_arg
 
     from .export import EXPORT_FORMATS
     from .presets import PRESETS

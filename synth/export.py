@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from shapes.validation import check_choice
+from tactile_synth.validation import check_choice
 
 from . import store
 from .progress import Progress

@@ -31,11 +31,12 @@ from typing import Any
 
 import numpy as np
 
-from shapes.validation import check_int
+from tactile_synth import atomic
 from tactile_synth.interrupts import StopRequests
 from tactile_synth.threads import available_cpus, init_worker, rollout_threads, worker_threads
+from tactile_synth.validation import check_int
 
-from . import atomic, store
+from . import store
 from .presets import GenerationConfig, plan, preset
 from .progress import progress as show_progress
 from .summary import counted

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from shapes import SHAPE_NAMES
-from shapes.validation import check_choice, check_int, check_positive
+from tactile_synth.validation import check_choice, check_int, check_positive
 
 from .config import SynthConfig
 from .materials import MATERIAL_NAMES

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from shapes import SHAPE_NAMES
-from shapes.validation import float_arg, int_arg
+from tactile_synth.validation import float_arg, int_arg
 
 from .materials import MATERIAL_NAMES
 
@@ -40,7 +40,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def check_trial_args(args: argparse.Namespace) -> None:
     """The checks ``generate`` applies to a grid, on one trial's options, before anything is
     simulated: names, the force and speed bounds, a seed >= 0 and a slide on the plate."""
-    from shapes.validation import check_choice, check_int
+    from tactile_synth.validation import check_choice, check_int
 
     from .presets import check_forces, check_speeds
     from .simulator import check_grid

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from shapes import SHAPE_NAMES
-from shapes.validation import check_choice, check_int, check_positive
+from tactile_synth.validation import check_choice, check_int, check_positive
 
 from .materials import MATERIAL_NAMES
 

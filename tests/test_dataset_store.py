@@ -15,11 +15,12 @@ import pytest
 import zarr
 
 import synth.generation as generation
-from synth import CLASS_NAMES, PRESETS, GenerationConfig, SynthConfig, atomic, load_dataset, store
+from synth import CLASS_NAMES, PRESETS, GenerationConfig, SynthConfig, load_dataset, store
 from synth.dataset_cli import register  # noqa: F401 - the CLI module must import cleanly
 from synth.export import export
 from synth.presets import load_toml, plan, trial_seed, trial_seeds
 from synth.summary import summarize
+from tactile_synth import atomic
 
 FAKE_SYNTH = {"fake": True}
 

@@ -24,8 +24,9 @@ import zarr
 
 import synth.generation as generation
 from benchmark.cli import main
-from synth import GenerationConfig, SimulationError, atomic, load_dataset, store
+from synth import GenerationConfig, SimulationError, load_dataset, store
 from synth.presets import plan
+from tactile_synth import atomic
 
 ROOT = Path(__file__).resolve().parents[1]
 FAKE_SYNTH = {"fake": True}

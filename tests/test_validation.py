@@ -2,7 +2,7 @@ import math
 
 import pytest
 
-from shapes.validation import check_choice, check_int, check_non_negative, check_positive
+from tactile_synth.validation import check_choice, check_int, check_non_negative, check_positive
 
 
 def test_check_choice_accepts_and_hints() -> None:

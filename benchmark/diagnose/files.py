@@ -12,8 +12,8 @@ from typing import Any
 import numpy as np
 
 from synth import Dataset
-from synth.atomic import check_out_dir
 from synth.store import check_not_inside_a_store
+from tactile_synth.atomic import check_out_dir
 
 from .analysis import diagnose
 from .plots import plot_accuracy, plot_confusion, plot_pvdf_spectra, plot_sg_traces

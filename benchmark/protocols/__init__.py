@@ -26,8 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from shapes.validation import check_choice
 from synth import Dataset
+from tactile_synth.validation import check_choice
 
 from ..budget import EpisodeBudget
 from ..engine import Features, Protocol, run_protocol

@@ -16,10 +16,11 @@ from typing import Any
 
 import numpy as np
 
-from shapes.validation import check_int
+from tactile_synth import atomic
 from tactile_synth.interrupts import StopRequests
+from tactile_synth.validation import check_int
 
-from .. import atomic, store
+from .. import store
 from ..presets import (
     MAX_CHUNK_TRIALS,
     TrialPlan,

@@ -9,7 +9,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from shapes import SHAPE_NAMES
-from shapes.validation import check_choice, parse_number
+from tactile_synth.validation import check_choice, parse_number
 
 from ..materials import MATERIAL_NAMES
 from ..presets import (

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from shapes.validation import check_choice, parse_number
+from tactile_synth.validation import check_choice, parse_number
 
 from ..trial import CHANNELS
 from .errors import MAX_SAMPLE_V, TIME_COLUMN, Bad, RecordingError

@@ -48,6 +48,8 @@ Everything is re-exported here: ``synth.store.X`` names every part.
 
 from __future__ import annotations
 
+from tactile_synth.atomic import check_not_inside_a_store, enclosing_store, is_store
+
 from .checksums import array_checksum, chunk_checksum
 from .errors import DatasetError, DatasetIncomplete, DatasetLocked, Problem
 from .layout import (
@@ -58,11 +60,8 @@ from .layout import (
     PLAN_ARRAYS,
     PLAN_DTYPES,
     TRIAL_BYTES,
-    check_not_inside_a_store,
     chunk_file,
-    enclosing_store,
     existing_parent,
-    is_store,
     package_version,
     pending_path,
     versions,

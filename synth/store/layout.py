@@ -10,7 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from .. import atomic
+from tactile_synth import atomic
+
 from ..trial import CHANNELS, N_SAMPLES
 
 #: Bumped whenever the layout above changes incompatibly or the simulator writes other
@@ -63,32 +64,6 @@ def writer_mismatch(meta: dict[str, Any]) -> list[str]:
         if meta.get(key) != now[key]:
             out.append(f"{name} {meta.get(key)} there, {now[key]} here")
     return out
-
-
-def is_store(path: Path) -> bool:
-    """True if ``path`` is a Zarr group directory (a tactile-synth store or a half-created one)."""
-    return (Path(path) / "zarr.json").is_file()
-
-
-def enclosing_store(path: str | Path, *, itself: bool = False) -> Path | None:
-    """The store that holds ``path`` below its root (one of its arrays, or anything
-    further down), or with ``itself`` also the store that ``path`` is, if any: a dataset
-    or a file written there would replace part of that store. An array's directory has
-    its own ``zarr.json``, so the outermost one is the store."""
-    p = Path(os.path.abspath(path))
-    stores = [q for q in ((p,) if itself else ()) + tuple(p.parents) if is_store(q)]
-    return stores[-1] if stores else None
-
-
-def check_not_inside_a_store(
-    out: str | Path, *, itself: bool = False, advice: str = "choose a path outside it"
-) -> None:
-    """A one-line ``ValueError`` naming ``--out`` (ending with ``advice``) if ``out`` lies
-    inside another dataset store (or, with ``itself``, is one), where writing (or
-    replacing with ``--overwrite``) would damage that store."""
-    inside = enclosing_store(out, itself=itself)
-    if inside is not None:
-        raise ValueError(f"--out {out} lies inside the dataset {inside}; {advice}")
 
 
 def existing_parent(path: str | Path) -> Path:

@@ -12,8 +12,9 @@ from pathlib import Path
 from typing import Any
 
 from shapes import SHAPE_NAMES
+from tactile_synth import atomic
+from tactile_synth.atomic import enclosing_store, is_store
 
-from .. import atomic
 from ..materials import MATERIAL_NAMES
 from ..presets import GenerationConfig
 from .errors import DatasetError, Problem
@@ -23,8 +24,6 @@ from .layout import (
     KIND_IMPORTED,
     KIND_SIMULATED,
     PLAN_ARRAYS,
-    enclosing_store,
-    is_store,
     package_version,
     pending_path,
 )

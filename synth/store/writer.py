@@ -14,8 +14,8 @@ from typing import Any
 import numpy as np
 
 from shapes import SHAPE_NAMES
+from tactile_synth import atomic
 
-from .. import atomic
 from ..materials import MATERIAL_NAMES
 from ..presets import GenerationConfig, TrialPlan, condition_name, plan
 from ..trial import CHANNELS, CLASS_NAMES, N_SAMPLES, SAMPLE_RATE_HZ, TrialSpec, class_index

@@ -9,6 +9,13 @@
 - :func:`replace_dir`: put a finished directory in place of another (two renames in one
   directory, the old one deleted last); :func:`recover` completes a replacement a killed
   process left half-way, so the path always ends up holding one whole version.
+- :func:`check_out_dir`, :func:`check_dir_path`, :func:`not_writable`: an output path
+  refused in one line naming its argument before anything is written;
+  :func:`check_not_inside_a_store`: an output that would land inside a dataset store
+  (a Zarr group) refused likewise.
+
+Every package's commands write through these, so the module sits in the package every
+other one may import, and imports only the standard library.
 """
 
 from __future__ import annotations
@@ -189,3 +196,30 @@ def recover(target: Path, complete: bool) -> None:
         fsync_dir(target.parent)
     if old.exists():
         shutil.rmtree(old)
+
+
+# -- Zarr stores ------------------------------------------------------------------------
+def is_store(path: Path) -> bool:
+    """True if ``path`` is a Zarr group directory (a tactile-synth store or a half-created one)."""
+    return (Path(path) / "zarr.json").is_file()
+
+
+def enclosing_store(path: str | Path, *, itself: bool = False) -> Path | None:
+    """The store that holds ``path`` below its root (one of its arrays, or anything
+    further down), or with ``itself`` also the store that ``path`` is, if any: a dataset
+    or a file written there would replace part of that store. An array's directory has
+    its own ``zarr.json``, so the outermost one is the store."""
+    p = Path(os.path.abspath(path))
+    stores = [q for q in ((p,) if itself else ()) + tuple(p.parents) if is_store(q)]
+    return stores[-1] if stores else None
+
+
+def check_not_inside_a_store(
+    out: str | Path, *, itself: bool = False, advice: str = "choose a path outside it"
+) -> None:
+    """A one-line ``ValueError`` naming ``--out`` (ending with ``advice``) if ``out`` lies
+    inside another dataset store (or, with ``itself``, is one), where writing (or
+    replacing with ``--overwrite``) would damage that store."""
+    inside = enclosing_store(out, itself=itself)
+    if inside is not None:
+        raise ValueError(f"--out {out} lies inside the dataset {inside}; {advice}")

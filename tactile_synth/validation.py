@@ -1,4 +1,4 @@
-"""Input checks shared by every package (shapes is the leftmost package, so all may import it).
+"""Input checks shared by every package (this package is imported by all of them).
 
 Errors name the argument, what is allowed and what was received, and unknown
 names get a "did you mean" hint.
