@@ -14,20 +14,12 @@ Modules are imported on first use.
 
 from __future__ import annotations
 
-import importlib
-import importlib.metadata
-import importlib.util
-import inspect
-import os
-import sys
-import zlib
 from collections.abc import Sequence
-from pathlib import Path
 
 import numpy as np
 
 from synth import Dataset
-from tactile_synth.validation import check_choice
+from tactile_synth import plugins
 
 from ..budget import EpisodeBudget
 from ..engine import Features, Protocol, run_protocol
@@ -48,8 +40,7 @@ ENTRY_POINT_GROUP = "tactile_synth.protocols"
 
 def plugin_protocols() -> dict[str, str]:
     """Entry-point name -> ``"module:Class"`` of every installed plug-in protocol."""
-    eps = importlib.metadata.entry_points(group=ENTRY_POINT_GROUP)
-    return {ep.name: ep.value for ep in eps if ep.name not in _PROTOCOLS}
+    return plugins.entry_points(ENTRY_POINT_GROUP, _PROTOCOLS)
 
 
 def available_protocols() -> tuple[str, ...]:
@@ -57,63 +48,26 @@ def available_protocols() -> tuple[str, ...]:
     return (*PROTOCOL_NAMES, *sorted(plugin_protocols()))
 
 
-def _module(spec: str, module: str, arg: str):
-    if not module.endswith(".py"):
-        if os.getcwd() not in sys.path and importlib.util.find_spec(module.split(".")[0]) is None:
-            sys.path.append(os.getcwd())  # searched last, as for methods: installed ones win
-        try:
-            return importlib.import_module(module)
-        except ImportError as exc:
-            raise ValueError(f"{arg}: {spec!r}: importing {module} failed: {exc}") from None
-    path = Path(module)
-    if not path.is_file():
-        raise ValueError(f"{arg}: {spec!r}: file {path} does not exist")
-    resolved = str(path.resolve())
-    name = f"_tactile_synth_protocol_{path.stem}_{zlib.crc32(resolved.encode()):08x}"
-    if name not in sys.modules:
-        loader = importlib.util.spec_from_file_location(name, resolved)
-        if loader is None or loader.loader is None:
-            raise ValueError(f"{arg}: {spec!r}: cannot load {path} as a Python module")
-        mod = importlib.util.module_from_spec(loader)
-        sys.modules[name] = mod  # before executing: dataclasses look it up
-        try:
-            loader.loader.exec_module(mod)
-        except BaseException:
-            del sys.modules[name]
-            raise
-    return sys.modules[name]
-
-
-def _load(spec: str, arg: str) -> type[Protocol]:
-    module, sep, attr = spec.rpartition(":")
-    if not sep or not module or not attr.isidentifier():
-        raise ValueError(f"{arg}: {spec!r} is not module:Class")
-    cls = getattr(_module(spec, module, arg), attr, None)
-    if not (inspect.isclass(cls) and issubclass(cls, Protocol)) or inspect.isabstract(cls):
-        raise ValueError(
-            f"{arg}: {spec!r} is not a complete benchmark.engine.Protocol subclass "
-            "(see docs/protocols.md)"
-        )
-    if not isinstance(getattr(cls, "name", None), str):
-        raise ValueError(f"{arg}: {spec!r} must set the class attribute name (a string)")
-    return cls
+def protocol_class(name: str, *, arg: str = "protocol") -> type[Protocol]:
+    """The class of protocol ``name`` (built-in, plug-in or ``module:Class``, see
+    :func:`tactile_synth.plugins.resolve`); ``ValueError`` naming ``arg`` when it cannot
+    be found or is no complete Protocol."""
+    return plugins.resolve(
+        name,
+        builtins=_PROTOCOLS,
+        group=ENTRY_POINT_GROUP,
+        base=Protocol,
+        kind="protocol",
+        doc="docs/protocols.md",
+        example="examples.leave_one_material_out:LeaveOneMaterialOut",
+        arg=arg,
+    )
 
 
 def get(name: str, *, arg: str = "protocol") -> Protocol:
     """A new instance of protocol ``name`` (built-in, plug-in or ``module:Class``);
     ``ValueError`` naming ``arg`` when it cannot be found or is no Protocol."""
-    if not isinstance(name, str) or not name:
-        raise ValueError(f"{arg} must be a protocol name or module:Class; got {name!r}")
-    if name in _PROTOCOLS:
-        module, cls = _PROTOCOLS[name].split(":")
-        return getattr(importlib.import_module(module), cls)()
-    plugins = plugin_protocols()
-    if name in plugins:
-        return _load(plugins[name], f"{arg} {name!r} (entry point {plugins[name]!r})")()
-    if ":" in name:
-        return _load(name, arg)()
-    check_choice(arg, name, available_protocols())  # raises, with a close match
-    raise AssertionError("unreachable")
+    return protocol_class(name, arg=arg)()
 
 
 def run(
