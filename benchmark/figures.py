@@ -59,7 +59,30 @@ MATERIAL_COLOURS: dict[str, str] = {
     "wood": "tab:olive",
     "aluminum": "tab:gray",
 }
+#: Colours of other materials than the paper's, in the order a dataset lists them.
+OTHER_COLOURS: tuple[str, ...] = (
+    "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown", "tab:pink", "tab:cyan"
+)  # fmt: skip
 DPI = 120
+
+
+def names_in_order(values: np.ndarray, preferred: Sequence[str]) -> list[str]:
+    """The distinct ``values``: those of ``preferred`` in its order, then the others in the
+    order they first appear (a dataset's own specimens or materials after the paper's)."""
+    present = list(dict.fromkeys(np.asarray(values).tolist()))
+    return [v for v in preferred if v in present] + [v for v in present if v not in preferred]
+
+
+def material_colour(material: str, others: Sequence[str] = ()) -> str:
+    """The colour of ``material``: the paper's three have their own; any other takes the
+    next of :data:`OTHER_COLOURS` by its place among ``others``."""
+    if material in MATERIAL_COLOURS:
+        return MATERIAL_COLOURS[material]
+    rest = [m for m in others if m not in MATERIAL_COLOURS]
+    i = rest.index(material) if material in rest else 0
+    return OTHER_COLOURS[i % len(OTHER_COLOURS)]
+
+
 #: Panels per row of the perturbation heat map (more methods wrap onto further rows).
 HEATMAP_COLUMNS = 4
 
@@ -271,29 +294,36 @@ def tsne_scatter(
 ) -> Path:
     """Fig. 7: t-SNE ``(n, 2)`` scatter, marker = shape, colour = material."""
     fig, ax = plt.subplots(figsize=(7.5, 6))
-    for s_i, s in enumerate(SHAPE_NAMES):
-        for m in MATERIAL_NAMES:
+    shapes = names_in_order(shape, SHAPE_NAMES)
+    materials = names_in_order(material, MATERIAL_NAMES)
+    for s_i, s in enumerate(shapes):
+        for m in materials:
             sel = (shape == s) & (material == m)
             if np.any(sel):
                 ax.scatter(
                     emb[sel, 0],
                     emb[sel, 1],
-                    marker=SHAPE_MARKERS[s_i],
+                    marker=SHAPE_MARKERS[s_i % len(SHAPE_MARKERS)],
                     s=22,
-                    color=MATERIAL_COLOURS[m],
+                    color=material_colour(m, materials),
                     alpha=0.75,
                     linewidths=0.3,
                     edgecolors="k",
                 )
     shape_handles = [
-        plt.Line2D([], [], marker=SHAPE_MARKERS[i], ls="", color="k", label=f"S{i + 1} {s}")
-        for i, s in enumerate(SHAPE_NAMES)
-        if np.any(shape == s)
+        plt.Line2D(
+            [],
+            [],
+            marker=SHAPE_MARKERS[i % len(SHAPE_MARKERS)],
+            ls="",
+            color="k",
+            label=f"S{SHAPE_NAMES.index(s) + 1} {s}" if s in SHAPE_NAMES else s,
+        )
+        for i, s in enumerate(shapes)
     ]
     mat_handles = [
-        plt.Line2D([], [], marker="o", ls="", color=MATERIAL_COLOURS[m], label=m)
-        for m in MATERIAL_NAMES
-        if np.any(material == m)
+        plt.Line2D([], [], marker="o", ls="", color=material_colour(m, materials), label=m)
+        for m in materials
     ]
     ax.legend(
         handles=shape_handles + mat_handles,
@@ -324,8 +354,8 @@ def example_signals(data: Dataset, path: str | Path) -> Path:
     return plot_example_grid(
         {names[cls]: data.signals[i] for cls, i in rows.items()},
         path,
-        shapes=[s for s in SHAPE_NAMES if np.any(data.shape == s)],
-        materials=[m for m in MATERIAL_NAMES if np.any(data.material == m)],
+        shapes=list(data.specimens),
+        materials=list(data.materials),
         channels=CHANNELS,
         sample_rate_hz=SAMPLE_RATE_HZ,
         notes={

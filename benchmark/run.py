@@ -44,7 +44,7 @@ from .plan import log, prepare_datasets, run_plan
 from .protocols import PROTOCOL_NAMES, get
 from .report import dataset_summary, write_report
 from .results import Record, write_results
-from .splits import CROSS_SHAPE_FOLDS
+from .splits import NotApplicable, specimen_folds
 
 __all__ = ["benchmark_all", "dataset_summary", "run", "run_plan", "run_protocols"]
 
@@ -89,6 +89,7 @@ def run_protocols(
     if sources:
         base["sources"] = sources
     found: dict[int, list[Record]] = {}
+    skipped: dict[str, str] = {}
     processes = 0
     pending: list[tuple[int, Protocol, str, list[Task]]] = []
     for i, protocol in enumerate(protocols):
@@ -109,14 +110,14 @@ def run_protocols(
             found[i] = cached
             continue
         episodes = budget.for_task(protocol.name)
-        pending.append(
-            (
-                i,
-                protocol,
-                key,
-                protocol_tasks(protocol, data, perturbed, episodes=episodes, seed=seed),
-            )
-        )
+        try:
+            tasks = protocol_tasks(protocol, data, perturbed, episodes=episodes, seed=seed)
+        except NotApplicable as exc:
+            log(progress, f"{protocol.name}: skipped: {exc}")
+            skipped[protocol.name] = str(exc)
+            found[i] = []
+            continue
+        pending.append((i, protocol, key, tasks))
     if pending:
         start = time.perf_counter()
         where = f" in {workers} worker processes" if workers > 1 else ""
@@ -144,15 +145,17 @@ def run_protocols(
             fit_cache=fits,
         ).processes
         fits.clear()
-    return ProtocolRuns([r for i in range(len(protocols)) for r in found[i]], processes)
+    return ProtocolRuns([r for i in range(len(protocols)) for r in found[i]], processes, skipped)
 
 
 class ProtocolRuns(NamedTuple):
-    """What :func:`run_protocols` returns: the records, and the processes the fits ran in
-    (0: every protocol came from its checkpoint)."""
+    """What :func:`run_protocols` returns: the records, the processes the fits ran in
+    (0: every protocol came from its checkpoint), and the protocols that could not apply
+    to the datasets, each with the reason (:class:`benchmark.splits.NotApplicable`)."""
 
     records: list[Record]
     processes: int
+    skipped: dict[str, str]
 
 
 #: The report's thread line when every protocol came from its checkpoint.
@@ -235,7 +238,7 @@ def benchmark_all(
         features.of(d)
     # The reference curve joins the queue: it is evaluated on the closed-set AFOP-ML fit.
     protocols = [*(get(name) for name in PROTOCOL_NAMES), Reference()]
-    records, processes = run_protocols(
+    records, processes, skipped = run_protocols(
         protocols,
         data,
         perturbed,
@@ -260,10 +263,12 @@ def benchmark_all(
         "episodes": budget.describe(methods, PROTOCOL_NAMES),
         "threads": threads_line(processes),
         "kernels": kernels_line(processes),
-        "cross_shape_folds": [list(f) for f in CROSS_SHAPE_FOLDS],
+        "cross_shape_folds": []
+        if "cross-shape" in skipped
+        else [list(f) for f in specimen_folds(data.specimens)],
         "figures": draw_figures(records, data, artefacts, out),
         "figure_notes": figure_notes(records, artefacts, seed),
-        "notes": list(NOTES),
+        "notes": [*NOTES, *(f"{name} was not run: {why}." for name, why in skipped.items())],
     }
     write_report(records, out, meta)
     log(progress, f"benchmark done in {time.perf_counter() - t_start:.0f} s")

@@ -47,6 +47,7 @@ def benchmark_protocol(
 
     from .report import dataset_summary, write_report
     from .run import benchmark_all, default_workers, kernels_line, run_protocols, threads_line
+    from .splits import NotApplicable
 
     chosen = None if protocol == "all" else get(protocol, arg="PROTOCOL")
     methods = check_methods(list(methods) if methods else list(METHOD_NAMES))
@@ -83,7 +84,7 @@ def benchmark_protocol(
                 perturbed_path=perturbed_path,
                 workers=workers,
             )
-        records, processes = run_protocols(
+        records, processes, skipped = run_protocols(
             [chosen, Reference()] if chosen.uses_reference else [chosen],
             data,
             perturbed,
@@ -95,6 +96,8 @@ def benchmark_protocol(
             features=Features(),
             workers=workers,
         )
+        if chosen.name in skipped:
+            raise NotApplicable(f"--data: {skipped[chosen.name]}")
         write_results(out / "results.json", records)
         made: dict[str, str] = {}
         if select(records, "accuracy", protocol="closed-set", condition=None):

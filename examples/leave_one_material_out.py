@@ -17,7 +17,7 @@ import numpy as np
 
 from benchmark.budget import EpisodeBudget
 from benchmark.engine import Cell, Pool, Protocol, Task, child_seed
-from synth import MATERIAL_NAMES, Dataset
+from synth import Dataset
 
 
 class LeaveOneMaterialOut(Protocol):
@@ -27,7 +27,7 @@ class LeaveOneMaterialOut(Protocol):
         self, data: Dataset, perturbed: Dataset | None, *, seed: int, episodes: EpisodeBudget
     ) -> list[Task]:
         tasks = []
-        for i, material in enumerate(MATERIAL_NAMES):
+        for i, material in enumerate(data.materials):
             left_out = data.material == material
             if not left_out.any() or left_out.all():
                 continue  # nothing to test on, or nothing to fit on

@@ -46,6 +46,26 @@ class Dataset:
     def __len__(self) -> int:
         return int(self.signals.shape[0])
 
+    @property
+    def class_names(self) -> tuple[str, ...]:
+        """The classes that have trials, in the order of ``classes``."""
+        present = set(np.unique(self.label).tolist())
+        return tuple(c for i, c in enumerate(self.classes) if i in present)
+
+    @property
+    def specimens(self) -> tuple[str, ...]:
+        """The specimens (shapes) that have trials, in the order of ``classes``."""
+        present = set(np.unique(self.shape).tolist())
+        names = dict.fromkeys(c.split("/", 1)[0] for c in self.classes)
+        return tuple(s for s in names if s in present)
+
+    @property
+    def materials(self) -> tuple[str, ...]:
+        """The materials that have trials, in the order of ``classes``."""
+        present = set(np.unique(self.material).tolist())
+        names = dict.fromkeys(c.split("/", 1)[1] for c in self.classes)
+        return tuple(m for m in names if m in present)
+
     def subset(self, mask_or_index: np.ndarray) -> Dataset:
         """The trials selected by a boolean mask or an index array (same attrs)."""
         idx = np.asarray(mask_or_index)

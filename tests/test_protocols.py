@@ -11,7 +11,7 @@ import pytest
 from benchmark import engine, protocols
 from benchmark.protocols import closed_set
 from benchmark.results import TIMING_FIELDS, select
-from benchmark.splits import CROSS_SHAPE_FOLDS, condition_name, split_halves
+from benchmark.splits import CROSS_SHAPE_FOLDS, NotApplicable, condition_name, split_halves
 from models.base import FewShotMethod
 from synth import CLASS_NAMES, MATERIAL_NAMES
 from tests.synthetic_data import make_dataset
@@ -223,21 +223,34 @@ def test_perturbation_dataset_too_small_for_any_episode_is_refused(data, spy):
     assert spy.log == []  # refused before any fit
 
 
-def test_generalisation_protocols_name_the_shapes_or_materials_data_lacks(spy):
+def test_generalisation_protocols_fold_any_specimens_and_materials(spy):
     few = make_dataset(trials_per_class=2, n_samples=200, shapes=("circle", "ellipse", "square"))
-    with pytest.raises(ValueError) as info:
-        protocols.run("cross-shape", few, methods=["AFOP-ML"], episodes=5)
-    assert str(info.value).startswith(
-        "--data has no trial of the shapes semicircle, pentagon, parallelogram, trapezoid "
-        "that cross-shape split 2 tests on (--data holds circle, ellipse, square)"
+    tasks = protocols.get("cross-shape").tasks(
+        few, None, seed=0, episodes=protocols.EpisodeBudget(5)
     )
+    assert [set(few.shape[t.test.index]) for t in tasks] == [{"circle"}, {"ellipse"}, {"square"}]
+    for t in tasks:
+        assert not set(few.shape[t.fit.index]) & set(few.shape[t.test.index])
+    two = make_dataset(trials_per_class=2, n_samples=200, materials=MATERIAL_NAMES[:2])
+    tasks = protocols.get("cross-material").tasks(
+        two, None, seed=0, episodes=protocols.EpisodeBudget(5)
+    )
+    assert [(t.fold, set(two.material[t.test.index])) for t in tasks] == [
+        (MATERIAL_NAMES[0], {MATERIAL_NAMES[1]}),
+        (MATERIAL_NAMES[1], {MATERIAL_NAMES[0]}),
+    ]
+    assert spy.log == []
+
+
+def test_a_protocol_that_cannot_apply_says_what_it_needs(spy):
+    one = make_dataset(trials_per_class=2, n_samples=200, shapes=("circle",))
+    with pytest.raises(NotApplicable, match=r"^cross-shape needs >= 2 specimens .* this "
+                       r"dataset has 1 \(circle\)$"):  # fmt: skip
+        protocols.run("cross-shape", one, methods=["AFOP-ML"], episodes=5)
     one = make_dataset(trials_per_class=2, n_samples=200, materials=(MATERIAL_NAMES[0],))
-    with pytest.raises(ValueError) as info:
+    with pytest.raises(NotApplicable, match=r"^cross-material needs >= 2 materials .* this "
+                       rf"dataset has 1 \({MATERIAL_NAMES[0]}\)$"):  # fmt: skip
         protocols.run("cross-material", one, methods=["AFOP-ML"], episodes=5)
-    assert str(info.value).startswith(
-        f"--data has no trial of the materials {', '.join(MATERIAL_NAMES[1:])} that "
-        f"cross-material split {MATERIAL_NAMES[0]} tests on"
-    )
     assert spy.log == []  # refused before any fit
 
 

@@ -6,8 +6,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from shapes import SHAPE_NAMES
-from synth import CLASS_NAMES, MATERIAL_NAMES, SAMPLE_RATE_HZ, Dataset
+from synth import SAMPLE_RATE_HZ, Dataset
 
 from ..splits import condition_name
 from .nearest import loo_nearest, loo_score
@@ -36,11 +35,6 @@ def group_columns(feature_names: Sequence[str]) -> dict[str, np.ndarray]:
     for key, _, sensor in GROUPS:
         out[key] = np.arange(sensors.size) if sensor is None else np.flatnonzero(sensors == sensor)
     return out
-
-
-def _ordered(values: np.ndarray, order: Sequence[str]) -> tuple[str, ...]:
-    present = set(np.unique(values).tolist())
-    return tuple(v for v in order if v in present)
 
 
 def _conditions(data: Dataset) -> tuple[np.ndarray, tuple[str, ...]]:
@@ -185,10 +179,10 @@ def diagnose(
     z = FeatureScaler().fit_transform(raw).astype(np.float64)
     columns = group_columns(FEATURE_NAMES)
 
-    shapes = _ordered(data.shape, SHAPE_NAMES)
-    materials = _ordered(data.material, MATERIAL_NAMES)
+    shapes = data.specimens
+    materials = data.materials
     cls = np.array([f"{s}/{m}" for s, m in zip(data.shape, data.material, strict=True)])
-    classes = _ordered(cls, CLASS_NAMES)
+    classes = data.class_names
     cond, conditions = _conditions(data)
     labels = {"class": cls, "shape": data.shape, "material": data.material, "condition": cond}
     plural = {

@@ -92,7 +92,7 @@ def plot_pvdf_spectra(diag: Diagnosis, path: str | Path) -> Path:
     import matplotlib.pyplot as plt
     from matplotlib.ticker import NullLocator
 
-    from ..figures import MATERIAL_COLOURS, save_figure
+    from ..figures import material_colour, save_figure
 
     sp = diag.spectra
     rows = len(sp.conditions)
@@ -112,7 +112,13 @@ def plot_pvdf_spectra(diag: Diagnosis, path: str | Path) -> Path:
             for mi, mat in enumerate(sp.materials):
                 p = sp.psd_v2_per_hz[ci, mi, k]
                 if np.all(np.isfinite(p)) and np.any(p[1:] > 0):
-                    ax.semilogy(f[1:], p[1:], color=MATERIAL_COLOURS.get(mat), lw=1, label=mat)
+                    ax.semilogy(
+                        f[1:],
+                        p[1:],
+                        color=material_colour(mat, diag.spectra.materials),
+                        lw=1,
+                        label=mat,
+                    )
             # Minor log ticks on many panels cost more to draw than everything else.
             ax.yaxis.set_minor_locator(NullLocator())
             ax.set_title(f"{ch}, {cond}", fontsize=9)

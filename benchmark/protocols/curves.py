@@ -27,12 +27,6 @@ def curve_grid(seed: int, protocol: str, task_index: int) -> tuple[Cell, ...]:
     return tuple(Cell(way, SHOT, child_seed(seed, protocol, task_index, way)) for way in WAYS)
 
 
-def held(values: np.ndarray, order: Sequence[str]) -> list[str]:
-    """The names among ``order`` that ``values`` (a dataset's shapes or materials) hold."""
-    present = set(np.unique(values).tolist())
-    return [v for v in order if v in present]
-
-
 def check_splits(
     protocol: str, splits: Sequence[Split], kind: str, have: Sequence[str], needs: str
 ) -> None:
