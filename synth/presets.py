@@ -117,6 +117,11 @@ class GenerationConfig:
     x ``trials_per_class``. ``synth`` is the simulator configuration
     (``SynthConfig.to_dict()``; ``None`` means the simulator's defaults, resolved and saved
     when the dataset is created). ``chunk_trials`` trials form one storage chunk and one task.
+    ``seed_by_condition``: whether a trial's seed depends on its force and speed (the
+    default, :func:`trial_seed`); false gives trial ``k`` of a class the same seed under
+    every condition, so a test set simulated at another force or speed repeats the same
+    strokes (placement, surface stretch, noise draws) with only the condition changed,
+    as the stress suite's severities need.
     """
 
     preset: str = "custom"
@@ -129,6 +134,7 @@ class GenerationConfig:
     seed: int = 0
     chunk_trials: int = 36
     synth: Mapping[str, Any] | None = field(default=None, compare=True)
+    seed_by_condition: bool = True
 
     def __post_init__(self) -> None:
         if not isinstance(self.preset, str) or not self.preset:
@@ -140,8 +146,9 @@ class GenerationConfig:
         speeds = check_speeds("speeds_mm_s", self.speeds_mm_s)
         object.__setattr__(self, "forces_n", forces)
         object.__setattr__(self, "speeds_mm_s", speeds)
-        if not isinstance(self.include_nominal, bool):
-            raise ValueError(f"include_nominal must be true or false; got {self.include_nominal!r}")
+        for flag in ("include_nominal", "seed_by_condition"):
+            if not isinstance(getattr(self, flag), bool):
+                raise ValueError(f"{flag} must be true or false; got {getattr(self, flag)!r}")
         check_int("seed", self.seed, minimum=0)
         check_int("chunk_trials", self.chunk_trials, minimum=1)
         if self.chunk_trials > MAX_CHUNK_TRIALS:
@@ -204,6 +211,8 @@ class GenerationConfig:
             out[f.name] = value
         if out["synth"] is None:
             del out["synth"]
+        if out["seed_by_condition"]:
+            del out["seed_by_condition"]  # the default: stores keep their earlier layout
         return out
 
     @classmethod
@@ -403,11 +412,18 @@ def plan(config: GenerationConfig) -> TrialPlan:
     trial = np.broadcast_to(np.arange(k, dtype=np.int32)[None, None, :], shape).ravel()
     force = conditions[cond, 0]
     speed = conditions[cond, 1]
+    if config.seed_by_condition:
+        seeds = trial_seeds(config.seed, label, force, speed, trial)
+    else:
+        nominal = np.ones(label.size)
+        seeds = trial_seeds(
+            config.seed, label, NOMINAL_FORCE_N * nominal, NOMINAL_SPEED_MM_S * nominal, trial
+        )
     return TrialPlan(
         label=label.copy(),
         condition=cond.copy(),
         trial_index=trial.copy(),
         force_n=force,
         speed_mm_s=speed,
-        seed=trial_seeds(config.seed, label, force, speed, trial),
+        seed=seeds,
     )
