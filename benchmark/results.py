@@ -1,7 +1,8 @@
 """results.json records, their file I/O (JSON, atomic, no pickle) and a query helper.
 
 A results.json file is a plain JSON list of records (objects); ``record`` names the kind
-(``accuracy``, ``selection``, ``tsne``, ``dscan``, ``meta_curve``) and ``schema_version``
+(``accuracy``, ``selection``, ``tsne``, ``dscan``, ``meta_curve``, and the stress suite's
+``stress``, ``stress_family``, ``stress_score``) and ``schema_version``
 the layout (:data:`SCHEMA_VERSION`). Every field, its type, unit and null rules are
 documented in ``docs/results.md``; :func:`read_results` refuses a file of another schema
 version.
@@ -214,13 +215,94 @@ class MetaCurveRecord(_Record):
     meta_gradient: str | None
 
 
+@dataclass(frozen=True, eq=False)
+class StressRecord(_Record):
+    """One stress-suite cell: a method's accuracy on one reading of one family at one
+    severity (``family`` null and ``severity`` 0: the clean test set). ``kind`` is
+    ``physical`` or ``sensor``, ``value`` the perturbation in ``unit``; ``reading`` is
+    ``enrolled-at-nominal`` or ``all-perturbed``. Timing fields as an accuracy record's."""
+
+    kind: ClassVar[str] = "stress"
+    protocol: str
+    family: str | None
+    family_kind: str | None
+    severity: int
+    value: float | None
+    unit: str | None
+    reading: str
+    method: str
+    way: int
+    shot: int
+    query: int
+    episodes: int
+    accuracy: float
+    ci95: float
+    pretrain_s: float
+    adapt_ms_per_episode: float
+
+
+@dataclass(frozen=True, eq=False)
+class StressFamilyRecord(_Record):
+    """A method's scores on one stress family under one reading (docs/stress.md):
+    ``mean_drop`` (accuracy, fraction), ``ce`` and ``relative_ce`` against ``reference``
+    (null where undefined)."""
+
+    kind: ClassVar[str] = "stress_family"
+    protocol: str
+    family: str
+    reading: str
+    method: str
+    mean_drop: float
+    ce: float | None
+    relative_ce: float | None
+    reference: str
+
+
+@dataclass(frozen=True, eq=False)
+class StressScoreRecord(_Record):
+    """A method's stress scores over the families under one reading: clean accuracy,
+    the mean and the worst family mean drop (with its family), ``mce`` and
+    ``relative_mce`` against ``reference`` (docs/stress.md)."""
+
+    kind: ClassVar[str] = "stress_score"
+    protocol: str
+    reading: str
+    method: str
+    clean: float
+    mean_drop: float
+    worst_drop: float
+    worst_family: str
+    mce: float | None
+    relative_mce: float | None
+    reference: str
+
+
 #: Record kind -> its dataclass.
 RECORD_TYPES: dict[str, type[_Record]] = {
-    t.kind: t for t in (AccuracyRecord, SelectionRecord, TsneRecord, DscanRecord, MetaCurveRecord)
+    t.kind: t
+    for t in (
+        AccuracyRecord,
+        SelectionRecord,
+        TsneRecord,
+        DscanRecord,
+        MetaCurveRecord,
+        StressRecord,
+        StressFamilyRecord,
+        StressScoreRecord,
+    )
 }
 #: The record kinds this version writes (``record`` field).
 RECORD_KINDS: tuple[str, ...] = tuple(RECORD_TYPES)
-Record = AccuracyRecord | SelectionRecord | TsneRecord | DscanRecord | MetaCurveRecord
+Record = (
+    AccuracyRecord
+    | SelectionRecord
+    | TsneRecord
+    | DscanRecord
+    | MetaCurveRecord
+    | StressRecord
+    | StressFamilyRecord
+    | StressScoreRecord
+)
 
 
 def accuracy_record(
