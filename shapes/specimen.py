@@ -275,12 +275,12 @@ class Specimen:
         from shapes.sources import build123d_outline
 
         try:
-            ring_units, curved = build123d_outline(shape, SPECIMEN.curve_tolerance_m / unit_m)
+            ring_m, curved = build123d_outline(shape, SPECIMEN.curve_tolerance_m, unit_m)
         except ValueError as exc:
             raise SpecimenError(name, str(exc)) from None
         return cls.from_outline(
             name,
-            ring_units * unit_m,
+            ring_m,
             height_m=height_m,
             source=source,
             curved=curved,
