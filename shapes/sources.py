@@ -12,14 +12,15 @@ open ..."``); the experiment loader puts the file and the entry in front.
   it, so the outline appears as drawn.
 - DXF: build123d reads no DXF, so ezdxf (the library build123d writes DXF with) reads
   it: closed polylines (bulges included), circles, ellipses and closed splines, or a
-  loop of lines, arcs and open polylines. Units from the header's ``$INSUNITS``;
-  unitless drawings are taken as millimetres.
+  loop of lines, arcs, splines and open polylines joined end to end. Units from the
+  header's ``$INSUNITS``; unitless drawings are taken as millimetres.
 - A function (``file.py:function`` or ``package.module:function``) returns a build123d
   ``Face``, ``Sketch`` or closed ``Wire`` in the plane z = 0, in millimetres.
 
 Curves are polygonised with vertices on the curve and chord error at most the
 tolerance (``SPECIMEN.curve_tolerance_m``, as the built-ins): OpenCASCADE's uniform
-deflection for build123d edges, ezdxf's adaptive flattening for DXF entities.
+deflection for build123d edges, ezdxf's flattening of each DXF line and curve (arcs
+and circles by their sagitta, ellipses and splines adaptively).
 """
 
 from __future__ import annotations
@@ -201,10 +202,10 @@ DXF_CURVES = ("LWPOLYLINE", "POLYLINE", "LINE", "ARC", "CIRCLE", "ELLIPSE", "SPL
 
 def dxf_outline(path: Path, layer: str | None, tolerance_m: float) -> tuple[np.ndarray, bool]:
     """The one closed outline of a DXF file's model space (on ``layer`` if given)."""
-    import ezdxf
-    from ezdxf import edgesmith, units
-
     _check_file(path, "DXF")
+    import ezdxf
+    from ezdxf import units
+
     try:
         doc = ezdxf.readfile(path)
     except (OSError, ezdxf.DXFError, UnicodeDecodeError) as exc:
@@ -228,74 +229,86 @@ def dxf_outline(path: Path, layer: str | None, tolerance_m: float) -> tuple[np.n
                 f"the DXF file {path} has no lines or curves on layer {layer!r} "
                 f"(layers: {', '.join(layers) or 'none'})"
             )
-    closed = [e for e in entities if edgesmith.is_closed_entity(e)]
-    loops, open_ends = _chain(
-        [e for e in entities if not edgesmith.is_closed_entity(e)], GAP_TOL_M / unit_m
-    )
-    paths = [_entity_path(e) for e in closed] + [edgesmith.path2d_from_chain(c) for c in loops]
-    if len(paths) != 1:
-        if not paths and open_ends is not None:
+    tolerance = tolerance_m / unit_m
+    parts, curved = [], False
+    for entity in entities:
+        for piece in _dxf_pieces(entity):
+            points = _dxf_points(piece, tolerance)
+            if np.abs(points[:, 2]).max() * unit_m > PLANE_TOL_M:
+                raise ValueError(
+                    f"the DXF file {path} has a {piece.dxftype()} outside the plane z = 0"
+                )
+            parts.append(points[:, :2])
+            curved |= piece.dxftype() != "LINE"
+    loops, open_ends = _loops(parts, GAP_TOL_M / unit_m)
+    if len(loops) != 1:
+        if not loops and open_ends is not None:
             raise ValueError(
                 f"the outline in the DXF file {path} is open: its ends are "
                 f"{_gap_mm(*open_ends, unit_m)} apart"
             )
-        found = f"{len(paths)} closed outlines" if paths else "no closed outline"
+        found = f"{len(loops)} closed outlines" if loops else "no closed outline"
         raise ValueError(
             f"the DXF file {path} holds {found}; a specimen is one"
-            + ("" if layer is not None or not paths else " (choose a layer with dxf_layer)")
+            + ("" if layer is not None or not loops else " (choose a layer with dxf_layer)")
         )
     if open_ends is not None:
         raise ValueError(
             f"the DXF file {path} holds lines or curves that close no outline besides its "
             "outline; remove them or put the outline on its own layer (dxf_layer)"
         )
-    (outline,) = paths
-    flat = np.array([(v.x, v.y) for v in outline.flattening(tolerance_m / unit_m)])
-    if np.hypot(*(flat[-1] - flat[0])) * unit_m > GAP_TOL_M:
-        raise ValueError(
-            f"the outline in the DXF file {path} is open: its ends are "
-            f"{_gap_mm(flat[-1], flat[0], unit_m)} apart"
-        )
-    return flat * unit_m, bool(outline.has_curves)
+    return loops[0] * unit_m, curved
 
 
-def _entity_path(entity: Any) -> Any:
-    from ezdxf import path as ezpath
+def _dxf_pieces(entity: Any) -> list:
+    """A polyline's segments (lines and arcs), any other entity itself."""
+    if entity.dxftype() in ("LWPOLYLINE", "POLYLINE"):
+        return list(entity.virtual_entities())
+    return [entity]
 
-    return ezpath.make_path(entity)
+
+def _dxf_points(entity: Any, tolerance: float) -> np.ndarray:
+    """(k, 3) points in world coordinates along one line or curve, vertices on the curve
+    and chords within ``tolerance`` of it (ezdxf's exact flattening of each kind)."""
+    kind = entity.dxftype()
+    if kind == "LINE":
+        points = [entity.dxf.start, entity.dxf.end]
+    elif kind in ("ARC", "CIRCLE"):
+        points = list(entity.flattening(sagitta=tolerance))
+    else:  # ELLIPSE, SPLINE: adaptive, each chord's middle within tolerance of the curve
+        points = list(entity.flattening(tolerance))
+    return np.array([(p[0], p[1], p[2]) for p in points], dtype=np.float64)
 
 
-def _chain(entities: list, gap: float) -> tuple[list[list], tuple[np.ndarray, np.ndarray] | None]:
-    """Join open DXF edges end to end: (closed loops, the ends of the first chain that
-    does not close, or None)."""
-    from ezdxf import edgesmith
-
-    todo = list(edgesmith.edges_from_entities_2d(entities, gap_tol=gap))
+def _loops(parts: list[np.ndarray], gap: float) -> tuple[list[np.ndarray], tuple | None]:
+    """Join polylines end to end into closed loops: (the loops, the ends of the first
+    chain that does not close, or None)."""
+    todo = list(parts)
     loops, open_ends = [], None
     while todo:
         chain = [todo.pop(0)]
-        while True:
-            end = chain[-1].end
-            if chain[0].start.isclose(end, abs_tol=gap):
-                loops.append(chain)
+        turned = False
+        while not _closed(chain, gap):
+            found = _next_part(todo, chain[-1][-1], gap)
+            if found is None and not turned:  # grow the chain from its other end
+                chain = [c[::-1] for c in reversed(chain)]
+                turned = True
+                continue
+            if found is None:
                 break
-            nxt = next((e for e in todo if e.start.isclose(end, abs_tol=gap)), None)
-            if nxt is None:
-                nxt = next((e for e in todo if e.end.isclose(end, abs_tol=gap)), None)
-                if nxt is not None:
-                    todo.remove(nxt)
-                    nxt = nxt.reversed()
-            else:
-                todo.remove(nxt)
-            if nxt is None:
-                if open_ends is None:
-                    open_ends = (
-                        np.array([chain[0].start.x, chain[0].start.y]),
-                        np.array([end.x, end.y]),
-                    )
-                break
-            chain.append(nxt)
+            part = todo.pop(found[0])
+            chain.append(part if found[1] else part[::-1])
+        ring = np.vstack(chain)
+        if _closed(chain, gap):
+            loops.append(ring)
+        elif open_ends is None:
+            open_ends = (ring[0], ring[-1])
     return loops, open_ends
+
+
+def _closed(chain: list[np.ndarray], gap: float) -> bool:
+    """True if the chain ends where it starts and has room for an area."""
+    return sum(len(c) for c in chain) > 3 and np.hypot(*(chain[-1][-1] - chain[0][0])) <= gap
 
 
 # --- Python functions -----------------------------------------------------------------
