@@ -78,12 +78,28 @@ def _export(args: argparse.Namespace) -> int:
             by_name = {specimen_name(s): s for s in specimens}
             names = [by_name[check_choice("--shape", args.shape, tuple(by_name))]]
     _check_out_not_in_a_store(args.out, itself=True)  # files among its arrays damage it
+    if specimens is not None:
+        _build_all(names, fmt)
     bar = tqdm(names, desc=f"export {fmt}", unit="shape", disable=not sys.stderr.isatty())
     with _naming_out(args.out):
         for name in bar:
             path = export(name, args.out, fmt, unit=unit)
             bar.write(f"wrote {path} ({path.stat().st_size:,} bytes)", file=sys.stdout)
     return 0
+
+
+def _build_all(names: list, fmt: str) -> None:
+    """Build every user specimen's mesh (cached) or solid before the first file is
+    written, so one that build123d cannot make stops the export with nothing written."""
+    from shapes.cad import solid
+    from shapes.meshes import mesh
+    from shapes.specimen import Specimen
+
+    for name in names:
+        if isinstance(name, Specimen) and fmt == "step":
+            solid(name)
+        elif isinstance(name, Specimen):
+            mesh(name)
 
 
 def _preview(args: argparse.Namespace) -> int:
