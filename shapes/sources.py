@@ -96,7 +96,10 @@ def build123d_outline(shape: object, tolerance_m: float, unit_m: float = 1e-3):
 
 
 def _wire_ring(wire: Any, tolerance: float, unit_m: float) -> tuple[np.ndarray, bool]:
-    """Walk a wire's edges end to end: lines by their ends, curves polygonised."""
+    """Walk a wire's edges end to end: lines by their ends, curves polygonised.
+
+    Edges are joined by their coordinates, not in the order the wire lists them (which
+    need not follow the outline, e.g. where it crosses itself)."""
     import build123d as bd
 
     parts, curved = [], False
@@ -107,35 +110,12 @@ def _wire_ring(wire: Any, tolerance: float, unit_m: float) -> tuple[np.ndarray, 
         else:
             curved = True
             parts.append(np.array([(v.X, v.Y) for v in edge.positions(deflection=tolerance)]))
-    ring = chain_parts(parts, GAP_TOL_M / unit_m)
-    if np.hypot(*(ring[-1] - ring[0])) * unit_m > GAP_TOL_M:
-        raise ValueError(
-            f"the outline is open: its ends are {_gap_mm(ring[-1], ring[0], unit_m)} apart"
-        )
-    return ring * unit_m, curved
-
-
-def chain_parts(parts: list[np.ndarray], gap: float) -> np.ndarray:
-    """Polylines (k_i, 2) joined end to end, each turned as needed, into one (k, 2).
-
-    Joins by coordinates, not by the order a wire lists its edges in (which need not
-    follow the outline, e.g. when the outline crosses itself); ``ValueError`` if the
-    parts do not form one chain."""
-    todo = list(parts[1:])
-    chain = [parts[0]]
-    while todo:
-        found = _next_part(todo, chain[-1][-1], gap)
-        if found is None and len(chain) == 1:  # the first part may run against the outline
-            chain[0] = chain[0][::-1]
-            found = _next_part(todo, chain[0][-1], gap)
-        if found is None:
-            end = chain[-1][-1]
-            raise ValueError(
-                "the outline is open: its lines and curves do not join into one "
-                f"(a gap after ({end[0]:.3f}, {end[1]:.3f}))"
-            )
-        chain.append(todo.pop(found[0]) if found[1] else todo.pop(found[0])[::-1])
-    return np.vstack(chain)
+    loops, open_ends = _loops(parts, GAP_TOL_M / unit_m)
+    if open_ends is not None:
+        raise ValueError(f"the outline is open: its ends are {_gap_mm(*open_ends, unit_m)} apart")
+    if len(loops) != 1:
+        raise ValueError(f"the outline is {len(loops)} separate loops; a specimen is one")
+    return loops[0] * unit_m, curved
 
 
 def _next_part(todo: list[np.ndarray], end: np.ndarray, gap: float) -> tuple[int, bool] | None:

@@ -56,6 +56,10 @@ class SpecimenError(ValueError):
         self.rule = rule
         super().__init__(f"specimen {name!r}: {rule}")
 
+    def __reduce__(self) -> tuple:
+        # Rebuilt from its parts (a worker process may send it back to the client).
+        return type(self), (self.name, self.rule)
+
 
 def check_name(name: object) -> str:
     """Return ``name`` if it is a valid specimen name that no built-in shape has; else
@@ -160,6 +164,7 @@ class Specimen:
 
     Examples
     --------
+    >>> import shapes
     >>> ell = Specimen.from_outline(
     ...     "l_bracket",
     ...     [(-8e-3, -6e-3), (8e-3, -6e-3), (8e-3, -2e-3), (-4e-3, -2e-3), (-4e-3, 6e-3),

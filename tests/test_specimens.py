@@ -572,3 +572,31 @@ def test_a_gentle_dxf_arc_keeps_its_vertices_on_the_arc(tmp_path):
     arc = centre + 100 * MM * np.column_stack([np.cos(np.radians(t)), np.sin(np.radians(t))])
     gap = shapely.distance(spec.polygon.exterior, shapely.points(arc))
     assert gap.max() <= SPECIMEN.curve_tolerance_m * 1.001
+
+
+def test_errors_survive_a_trip_to_another_process():
+    import pickle
+
+    err = pickle.loads(pickle.dumps(SpecimenError("gear", "the outline is open")))
+    assert (str(err), err.name, err.rule) == (
+        "specimen 'gear': the outline is open",
+        "gear",
+        "the outline is open",
+    )
+
+
+def test_polygons_and_dxf_load_without_build123d(tmp_path):
+    """Reading polygon and DXF specimens (and their pieces) stays light: no build123d."""
+    from fresh_interpreter import run_json
+
+    _dxf(tmp_path / "clip.dxf", _clip)
+    path = write(
+        tmp_path,
+        f'[[specimen]]\nname = "a"\n{POLY}\n[[specimen]]\nname = "b"\ndxf = "clip.dxf"\n',
+    )
+    code = (
+        "import json, sys, shapes; s = shapes.load_specimens(sys.argv[1]); "
+        "[shapes.convex_pieces(x) for x in s]; "
+        "print(json.dumps(['build123d' in sys.modules, len(s)]))"
+    )
+    assert run_json(code.replace("sys.argv[1]", repr(str(path))), cleared=()) == [False, 2]
