@@ -202,7 +202,9 @@ class Specimen:
             raise SpecimenError(
                 name, "the outline repeats a vertex (Specimen.from_outline removes repeats)"
             )
-        object.__setattr__(self, "vertices_m", tuple((float(x), float(y)) for x, y in ring))
+        # + 0.0 turns -0.0 into 0.0: equal specimens then have equal geometry hashes.
+        vertices = tuple((float(x) + 0.0, float(y) + 0.0) for x, y in ring)
+        object.__setattr__(self, "vertices_m", vertices)
         poly = check_simple(name, ring)
         if not poly.exterior.is_ccw:
             raise SpecimenError(

@@ -145,6 +145,16 @@ def test_geometry_hash_is_the_geometry_only():
     assert len(a.geometry_hash) == 64
 
 
+def test_negative_zero_is_zero():
+    def rectangle(zero: float) -> Specimen:
+        corners = [(-8, -6), (8, -6), (8, zero), (8, 6), (-8, 6), (-8, zero)]
+        return Specimen("z", tuple((x * MM, y * MM) for x, y in corners))
+
+    a, b = rectangle(-0.0), rectangle(0.0)
+    assert math.copysign(1, a.vertices_m[2][1]) == 1.0
+    assert a == b and a.geometry_hash == b.geometry_hash
+
+
 def test_from_dict_refuses_damaged_records():
     good = ell().to_dict()
     with pytest.raises(ValueError, match="unknown keys: colour"):
