@@ -213,7 +213,7 @@ def _build(file: str, base_dir: Path, table: Mapping[str, Any]) -> SpecimenLike:
             kwargs = dict(table.get("kwargs", {}))
             ring, curved = sources.function_outline(table["function"], kwargs, base_dir, tol)
             source = f"function {table['function']}" + (
-                f" {json.dumps(kwargs, sort_keys=True)}" if kwargs else ""
+                f" {json.dumps(kwargs, sort_keys=True, default=str)}" if kwargs else ""
             )
         height_mm = table.get("height_mm", SPECIMEN.height_m * 1e3)
         return Specimen.from_outline(

@@ -109,7 +109,13 @@ def _wire_ring(wire: Any, tolerance: float, unit_m: float) -> tuple[np.ndarray, 
             parts.append(np.array([(v.X, v.Y) for v in ends]))
         else:
             curved = True
-            parts.append(np.array([(v.X, v.Y) for v in edge.positions(deflection=tolerance)]))
+            try:
+                points = edge.positions(deflection=tolerance)
+            except (RuntimeError, ValueError) as exc:  # OpenCASCADE could not sample it
+                raise ValueError(
+                    f"a {edge.geom_type.name.lower()} edge cannot be polygonised: {one_line(exc)}"
+                ) from None
+            parts.append(np.array([(v.X, v.Y) for v in points]))
     loops, open_ends = _loops(parts, GAP_TOL_M / unit_m)
     if open_ends is not None:
         raise ValueError(f"the outline is open: its ends are {_gap_mm(*open_ends, unit_m)} apart")
