@@ -1,7 +1,8 @@
 """On-disk cache of generated meshes, so build123d runs once per shape and version.
 
 Entries are ``.npz`` files (no pickle) keyed by a hash of the shape name, the
-specimen dimensions, this package's version and the cache format. Writers go
+specimen dimensions, this package's version and the cache format; a user's
+``Specimen`` by its geometry hash instead of name and dimensions. Writers go
 through a temporary file in the same directory and ``os.replace``, which is
 atomic, so concurrent workers never read a half-written entry (at worst two
 workers build the same entry and one replaces the other with identical data).
@@ -60,6 +61,23 @@ def entry_path(kind: str, name: str, dims: SpecimenDims) -> Path:
     )
     digest = hashlib.sha256(key.encode()).hexdigest()[:20]
     return cache_dir() / f"{kind}-{name}-{digest}.npz"
+
+
+def geometry_entry_path(kind: str, name: str, geometry_hash: str) -> Path:
+    """Where the cache entry for a user's specimen lives: keyed by its geometry hash
+    (``Specimen.geometry_hash``: vertices and height), so an edited outline gets a new
+    entry; ``name`` only makes the file name readable."""
+    key = json.dumps(
+        {
+            "format": FORMAT_VERSION,
+            "package": package_version(),
+            "kind": kind,
+            "geometry": geometry_hash,
+        },
+        sort_keys=True,
+    )
+    digest = hashlib.sha256(key.encode()).hexdigest()[:20]
+    return cache_dir() / f"{kind}-specimen-{name}-{digest}.npz"
 
 
 def load(path: Path) -> dict[str, np.ndarray] | None:

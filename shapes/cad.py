@@ -13,6 +13,7 @@ import numpy as np
 
 from shapes import outlines as ol
 from shapes.dims import SPECIMEN, SpecimenDims, check_dims
+from shapes.specimen import Specimen, SpecimenLike, specimen_name
 
 if TYPE_CHECKING:
     import build123d
@@ -21,12 +22,16 @@ if TYPE_CHECKING:
 _ANGULAR_TOLERANCE_RAD = 0.5
 
 
-def sketch(name: str, dims: SpecimenDims = SPECIMEN) -> build123d.Sketch:
-    """The outline as a build123d face on the plane z = 0, metres, exact curves."""
+def sketch(name: SpecimenLike, dims: SpecimenDims = SPECIMEN) -> build123d.Sketch:
+    """The outline as a build123d face on the plane z = 0, metres, exact curves; for a
+    ``Specimen``, its polygon (a curved source as polygonised when it was loaded)."""
     import build123d as bd
 
-    ol.check_shape(name)
+    ol.check_specimen(name)
     check_dims(dims)
+    if isinstance(name, Specimen):
+        name.check_on_plate(dims)
+        return bd.Sketch() + bd.Polygon(*name.vertices_m, align=None)
     s = dims.outline_size_m
     r = s / 2
     if name == "circle":
@@ -45,16 +50,18 @@ def sketch(name: str, dims: SpecimenDims = SPECIMEN) -> build123d.Sketch:
     return bd.Sketch() + bd.Polygon(*pts, align=None)
 
 
-def solid(name: str, dims: SpecimenDims = SPECIMEN) -> build123d.Part:
-    """The raised specimen: the outline extruded from z = 0 to ``dims.height_m`` (metres).
+def solid(name: SpecimenLike, dims: SpecimenDims = SPECIMEN) -> build123d.Part:
+    """The raised specimen: the outline extruded from z = 0 to ``dims.height_m`` (metres;
+    a ``Specimen`` to its own ``height_m``).
 
     The base plate is not part of it (see ``shapes.dims``).
     """
     import build123d as bd
 
-    part = bd.extrude(sketch(name, dims), amount=dims.height_m)
+    height = name.height_m if isinstance(name, Specimen) else dims.height_m
+    part = bd.extrude(sketch(name, dims), amount=height)
     if not part.is_valid:
-        raise RuntimeError(f"build123d produced an invalid solid for {name}")
+        raise RuntimeError(f"build123d produced an invalid solid for {specimen_name(name)}")
     return part
 
 
@@ -73,7 +80,7 @@ def tessellate(part: build123d.Part, tolerance_m: float) -> tuple[np.ndarray, np
     return vertices, faces
 
 
-def export_step(name: str, path: str, dims: SpecimenDims = SPECIMEN) -> None:
+def export_step(name: SpecimenLike, path: str, dims: SpecimenDims = SPECIMEN) -> None:
     """Write the exact solid as a STEP file at its true physical size.
 
     ``unit=Unit.M`` tells build123d that the model's numbers are metres; the

@@ -7,7 +7,8 @@ from pathlib import Path
 
 from shapes.dims import SPECIMEN, SpecimenDims
 from shapes.files import new_temp_file
-from shapes.outlines import check_shape
+from shapes.outlines import check_specimen
+from shapes.specimen import Specimen, SpecimenLike, specimen_name
 from tactile_synth.validation import check_choice
 
 FORMATS = ("stl", "obj", "step")
@@ -15,14 +16,15 @@ UNITS = {"m": 1.0, "mm": 1000.0}
 
 
 def export(
-    name: str,
+    name: SpecimenLike,
     out_dir: str | os.PathLike,
     fmt: str = "stl",
     *,
     unit: str = "m",
     dims: SpecimenDims = SPECIMEN,
 ) -> Path:
-    """Write the raised specimen ``name`` to ``out_dir/<name>.<fmt>`` and return the path.
+    """Write the raised specimen ``name`` (a built-in shape name or a ``Specimen``) to
+    ``out_dir/<name>.<fmt>`` and return the path.
 
     STL/OBJ hold ``mesh(name)`` scaled to ``unit`` (STL has no unit field: metres by
     default, ``unit="mm"`` for slicers and CAD tools that assume millimetres). STEP
@@ -30,13 +32,16 @@ def export(
     length unit (millimetres), so ``unit`` does not apply to it. An existing
     file is replaced atomically, so an interrupted export never leaves a truncated one.
     """
-    check_shape(name)
+    check_specimen(name)
     check_choice("fmt", fmt, FORMATS)
     check_choice("unit", unit, tuple(UNITS))
+    if isinstance(name, Specimen):
+        name.check_on_plate(dims)
+    stem = specimen_name(name)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    path = out / f"{name}.{fmt}"
-    tmp = str(new_temp_file(out, f".{name}.", f".{fmt}"))
+    path = out / f"{stem}.{fmt}"
+    tmp = str(new_temp_file(out, f".{stem}.", f".{fmt}"))
     try:
         if fmt == "step":
             from shapes.cad import export_step

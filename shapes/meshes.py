@@ -21,8 +21,9 @@ import numpy as np
 
 from shapes import cache
 from shapes.dims import SPECIMEN, SpecimenDims, check_dims
-from shapes.outlines import check_shape, outline
+from shapes.outlines import check_specimen, outline
 from shapes.partition import convex_partition
+from shapes.specimen import Specimen, SpecimenLike, specimen_name
 
 if TYPE_CHECKING:
     import trimesh
@@ -44,43 +45,55 @@ def prism_arrays(ring: np.ndarray, height_m: float) -> tuple[np.ndarray, np.ndar
     return verts, np.vstack([bottom, top, sides]).astype(np.int64)
 
 
+def _height_m(name: SpecimenLike, dims: SpecimenDims) -> float:
+    return name.height_m if isinstance(name, Specimen) else dims.height_m
+
+
 @functools.lru_cache(maxsize=64)
-def _pieces_arrays(name: str, dims: SpecimenDims) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
-    return tuple(
-        prism_arrays(ring, dims.height_m) for ring in convex_partition(outline(name, dims))
-    )
+def _pieces_arrays(
+    name: SpecimenLike, dims: SpecimenDims
+) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
+    height = _height_m(name, dims)
+    return tuple(prism_arrays(ring, height) for ring in convex_partition(outline(name, dims)))
 
 
-def convex_pieces(name: str, dims: SpecimenDims = SPECIMEN) -> list[trimesh.Trimesh]:
+def convex_pieces(name: SpecimenLike, dims: SpecimenDims = SPECIMEN) -> list[trimesh.Trimesh]:
     """Convex, watertight prisms whose union is the raised solid (metres, z in [0, height]).
 
     The pieces do not overlap. One piece for convex outlines; several for the moon
-    and the pentagram, so a collision engine that uses each mesh's convex hull
-    still lets the finger drop into the moon's notch and between the star's points.
+    and the pentagram (and any concave ``Specimen``), so a collision engine that uses
+    each mesh's convex hull still lets the finger drop into the moon's notch and
+    between the star's points.
     """
     import trimesh
 
-    check_shape(name)
+    check_specimen(name)
     check_dims(dims)
     return [
         trimesh.Trimesh(v.copy(), f.copy(), process=False) for v, f in _pieces_arrays(name, dims)
     ]
 
 
-def mesh(name: str, dims: SpecimenDims = SPECIMEN) -> trimesh.Trimesh:
+def mesh(name: SpecimenLike, dims: SpecimenDims = SPECIMEN) -> trimesh.Trimesh:
     """Watertight triangle mesh of ``solid(name)`` in metres (z in [0, height]), cached
-    on disk; curved sides within ``dims.curve_tolerance_m``."""
+    on disk; curved sides within ``dims.curve_tolerance_m``. A ``Specimen``'s entry is
+    keyed by its geometry hash."""
     import trimesh
 
-    check_shape(name)
+    check_specimen(name)
     check_dims(dims)
+    if isinstance(name, Specimen):
+        name.check_on_plate(dims)
     vertices, faces = _mesh_arrays(name, dims)
     return trimesh.Trimesh(vertices.copy(), faces.copy(), process=False)
 
 
 @functools.lru_cache(maxsize=64)
-def _mesh_arrays(name: str, dims: SpecimenDims) -> tuple[np.ndarray, np.ndarray]:
-    path = cache.entry_path("mesh", name, dims)
+def _mesh_arrays(name: SpecimenLike, dims: SpecimenDims) -> tuple[np.ndarray, np.ndarray]:
+    if isinstance(name, Specimen):
+        path = cache.geometry_entry_path("mesh", name.name, name.geometry_hash)
+    else:
+        path = cache.entry_path("mesh", name, dims)
     data = cache.load(path)
     if data is not None and _valid_mesh_arrays(data):
         return data["vertices"], data["faces"]
@@ -106,7 +119,9 @@ def _valid_mesh_arrays(data: dict[str, np.ndarray]) -> bool:
     )
 
 
-def build_mesh_arrays(name: str, dims: SpecimenDims = SPECIMEN) -> tuple[np.ndarray, np.ndarray]:
+def build_mesh_arrays(
+    name: SpecimenLike, dims: SpecimenDims = SPECIMEN
+) -> tuple[np.ndarray, np.ndarray]:
     """Tessellate the build123d solid (slow: imports build123d). Returns merged,
     outward-oriented vertices (n, 3) float64 and faces (m, 3) int64."""
     import trimesh
@@ -116,7 +131,7 @@ def build_mesh_arrays(name: str, dims: SpecimenDims = SPECIMEN) -> tuple[np.ndar
     vertices, faces = cad.tessellate(cad.solid(name, dims), dims.curve_tolerance_m)
     tm = trimesh.Trimesh(vertices, faces, process=True)
     if not tm.is_watertight:
-        raise RuntimeError(f"tessellation of {name} is not watertight")
+        raise RuntimeError(f"tessellation of {specimen_name(name)} is not watertight")
     if tm.volume < 0:
         tm.invert()
     return np.asarray(tm.vertices, dtype=np.float64), np.asarray(tm.faces, dtype=np.int64)

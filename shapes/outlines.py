@@ -52,22 +52,8 @@ import shapely
 from shapely.geometry import Polygon
 
 from shapes.dims import SPECIMEN, SpecimenDims, check_dims
-from tactile_synth.validation import check_choice
-
-SHAPE_NAMES: tuple[str, ...] = (
-    "circle",
-    "ellipse",
-    "semicircle",
-    "hexagon",
-    "moon",
-    "parallelogram",
-    "pentagon",
-    "pentagram",
-    "rhombus",
-    "square",
-    "trapezoid",
-    "triangle",
-)
+from shapes.names import SHAPE_NAMES, check_shape
+from shapes.specimen import Specimen, SpecimenLike
 
 # Dimensionless ratios of the definitions above (multiples of s).
 ELLIPSE_SEMI_AXES = (9 / 16, 6 / 16)
@@ -260,9 +246,10 @@ SHAPES: dict[str, ShapeDef] = {
 assert tuple(SHAPES) == SHAPE_NAMES
 
 
-def check_shape(name: object) -> str:
-    """Return ``name`` if it is one of ``SHAPE_NAMES``; else raise ``ValueError`` listing them."""
-    return check_choice("shape", name, SHAPE_NAMES)
+def check_specimen(shape: object) -> SpecimenLike:
+    """Return ``shape`` if it is a ``Specimen`` or one of ``SHAPE_NAMES``; else raise
+    ``ValueError`` listing the names."""
+    return shape if isinstance(shape, Specimen) else check_shape(shape)
 
 
 def outline_vertices(name: str, dims: SpecimenDims = SPECIMEN) -> np.ndarray:
@@ -272,20 +259,39 @@ def outline_vertices(name: str, dims: SpecimenDims = SPECIMEN) -> np.ndarray:
     return np.ascontiguousarray(pts if ring.is_ccw else pts[::-1], dtype=np.float64)
 
 
-def outline(name: str, dims: SpecimenDims = SPECIMEN) -> Polygon:
+def outline(name: SpecimenLike, dims: SpecimenDims = SPECIMEN) -> Polygon:
     """The outline as a shapely Polygon in metres (x: sliding direction), centred as
-    documented in this module; curved sides polygonised within ``dims.curve_tolerance_m``."""
+    documented in this module; curved sides polygonised within ``dims.curve_tolerance_m``.
+
+    ``name`` is a built-in shape name or a ``Specimen``, whose own outline is returned
+    (checked to fit ``dims``' plate; its size does not follow ``dims.outline_size_m``)."""
+    if isinstance(name, Specimen):
+        return Polygon(name.check_on_plate(check_dims(dims)).vertices_m)
     poly = Polygon(outline_vertices(name, dims))
     if not poly.is_valid:  # only reachable through a broken definition above
         raise RuntimeError(f"outline of {name} is not a valid polygon")
     return poly
 
 
-def analytic_area_m2(name: str, dims: SpecimenDims = SPECIMEN) -> float:
-    """Exact area of the outline's definition (m^2), from closed-form formulas."""
+def analytic_area_m2(name: SpecimenLike, dims: SpecimenDims = SPECIMEN) -> float:
+    """Exact area of the outline's definition (m^2), from closed-form formulas; for a
+    ``Specimen``, the area of its polygon (its definition)."""
+    if isinstance(name, Specimen):
+        check_dims(dims)
+        return name.area_m2
     return float(SHAPES[check_shape(name)].area_m2(check_dims(dims)))
 
 
-def is_curved(name: str) -> bool:
-    """True for outlines with curved sides (approximated by polygons in meshes)."""
+def is_curved(name: SpecimenLike) -> bool:
+    """True for outlines with curved sides (approximated by polygons in meshes); for a
+    ``Specimen``, whether its source had curved sides."""
+    if isinstance(name, Specimen):
+        return name.curved
     return SHAPES[check_shape(name)].curved
+
+
+def x_extent_m(name: SpecimenLike, dims: SpecimenDims = SPECIMEN) -> float:
+    """Length of the outline along x, the sliding direction (m): what the simulator's
+    path must cross."""
+    x0, _, x1, _ = outline(name, dims).bounds
+    return float(x1 - x0)
