@@ -436,22 +436,59 @@ def generate(
     progress: bool = True,
     simulator: Simulator | None = None,
 ) -> Path:
-    """Generate ``config`` (a :class:`GenerationConfig` or preset name) into the store ``out``.
+    """Simulate a dataset into the store ``out``, resumable and checked.
 
-    workers: local processes (default 1: this process, two chunk tasks at a time; N > 1: a
-    pool of N processes, faster where many cores would make one process's Python the
-    bottleneck). threads: MuJoCo rollout threads per task (default: half of
-    ``tactile_synth.threads.rollout_threads()`` in this process, for each of its two
-    tasks; in a pool, each process's share of the CPUs; 1 on an executor); in a pool or
-    on an executor it sizes the worker's BLAS/OpenMP pools too. executor: any
-    ``concurrent.futures.Executor`` (e.g. a Dask client's ``get_executor()``); its workers
-    must see ``out``. resume: complete an interrupted store (or an interrupted overwrite)
-    without recomputing its finished chunks; it refuses a store with damaged chunks unless
-    ``repair``, which re-simulates exactly those. overwrite: build a new store beside
-    ``out`` and put it in place when complete. progress: report the trials done on
-    stderr (:func:`synth.progress.progress`: a bar on a terminal, plain lines
-    elsewhere). Returns ``out``. Raises
-    :class:`synth.store.DatasetLocked` at once if another process is writing ``out``.
+    Parameters
+    ----------
+    config : GenerationConfig or str or None
+        The grid (classes, conditions, trials per class, seed, simulator settings) or a
+        preset name (``"quick"``, ``"paper"``, ``"perturbation"``); None with ``resume``:
+        the stored one.
+    out : str or pathlib.Path
+        The store's directory.
+    workers : int, optional
+        Local processes (default 1: this process, two chunk tasks at a time; N > 1: a
+        pool of N processes, faster where many cores would make one process's Python
+        the bottleneck).
+    threads : int, optional
+        MuJoCo rollout threads per task (default: half of
+        ``tactile_synth.threads.rollout_threads()`` in this process, for each of its two
+        tasks; in a pool, each process's share of the CPUs; 1 on an executor); in a pool
+        or on an executor it sizes the worker's BLAS/OpenMP pools too.
+    executor : concurrent.futures.Executor, optional
+        Any executor (e.g. a Dask client's ``get_executor()``); its workers must see
+        ``out``.
+    resume : bool, default False
+        Complete an interrupted store (or an interrupted overwrite) without recomputing
+        its finished chunks; it refuses a store with damaged chunks unless ``repair``,
+        which re-simulates exactly those.
+    overwrite : bool, default False
+        Build a new store beside ``out`` and put it in place when complete.
+    progress : bool, default True
+        Report the trials done on stderr (:func:`synth.progress.progress`: a bar on a
+        terminal, plain lines elsewhere).
+    simulator : callable, optional
+        Replaces MuJoCo (tests of the machinery only).
+
+    Returns
+    -------
+    pathlib.Path
+        ``out``.
+
+    Raises
+    ------
+    synth.store.DatasetLocked
+        At once, if another process is writing ``out``.
+
+    Examples
+    --------
+    >>> import tempfile, synth
+    >>> grid = synth.PRESETS["quick"].replace(materials=("wood",), trials_per_class=1)
+    >>> grid.n_trials
+    12
+    >>> path = synth.generate(grid, tempfile.mkdtemp() + "/ds", progress=False)
+    >>> len(synth.load_dataset(path))
+    12
     """
     out = Path(out)
     workers = 1 if workers is None else check_int("workers", workers, minimum=1)

@@ -680,6 +680,39 @@ def simulate(
     seed: int = 0,
     config: SynthConfig | None = None,
 ) -> Trial:
-    """Simulate one trial: ``Trial.signals`` float32 ``(4, 2000)`` plus ground truth."""
+    """Simulate one trial: the finger slides across a specimen under the robot's force
+    loop and the four channels are recorded through the virtual sensors and DAQ.
+
+    Parameters
+    ----------
+    shape : str
+        The specimen (one of ``shapes.SHAPE_NAMES``).
+    material : str
+        Its material (one of ``synth.MATERIAL_NAMES``).
+    force_n, speed_mm_s : float
+        The robot's normal-force set point (N) and sliding speed (mm/s).
+    seed : int
+        The trial's own seed: all its randomness (placement, surface stretch, scatter,
+        noise) derives from it, so the same arguments give the same bits.
+    config : SynthConfig, optional
+        The simulated experiment (default: the paper's, ``SynthConfig()``).
+
+    Returns
+    -------
+    Trial
+        ``signals`` float32 ``(4, 2000)``: 2 s at 1 kHz from the contact phase, channels
+        ``pvdf1, pvdf2, sg1, sg2``, volts; ``truth``: the simulated forces and positions
+        on the same clock.
+
+    Examples
+    --------
+    >>> import synth
+    >>> trial = synth.simulate("circle", "wood", seed=0)
+    >>> trial.signals.shape, trial.signals.dtype
+    ((4, 2000), dtype('float32'))
+    >>> again = synth.simulate("circle", "wood", seed=0)
+    >>> bool((again.signals == trial.signals).all())
+    True
+    """
     spec = TrialSpec(shape, material, force_n=force_n, speed_mm_s=speed_mm_s, seed=seed)
     return simulate_batch([spec], config=config, threads=1)[0]

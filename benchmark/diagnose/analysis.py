@@ -150,15 +150,49 @@ def diagnose(
     source: str | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> Diagnosis:
-    """Diagnose ``data`` (see the module docstring for what is measured).
+    """Diagnose ``data``: what its classes differ by, channel group by channel group
+    (see :mod:`benchmark.diagnose` for what is measured).
 
     Parameters
     ----------
-    data: any dataset with at least 2 trials.
-    features: its raw 386-feature pool ``(n, 386)`` if already computed (else extracted).
-    source: a description kept in the result (default: ``data.attrs["source"]`` or
+    data : synth.Dataset
+        Any dataset with at least 2 trials (any classes, conditions, trial counts).
+    features : numpy.ndarray, optional
+        Its raw 386-feature pool ``(n, 386)`` if already computed (else extracted).
+    source : str, optional
+        A description kept in the result (default: ``data.attrs["source"]`` or
         ``"dataset"``).
-    progress: called with a one-line message at each stage (e.g. ``print``).
+    progress : callable, optional
+        Called with a one-line message at each stage (e.g. ``print``).
+
+    Returns
+    -------
+    Diagnosis
+        Leave-one-out 1-NN accuracies per label and channel group, per-shape, material
+        and class accuracies, the most confused pairs, PVDF spectra and gauge traces.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from synth import Dataset
+    >>> rng = np.random.default_rng(0)
+    >>> t = np.arange(2000) / 1000
+    >>> shape = np.repeat(["circle", "square"], 6)
+    >>> tone = np.where(shape == "circle", 20.0, 60.0)[:, None, None]
+    >>> signals = np.sin(2 * np.pi * tone * t) + 0.1 * rng.standard_normal((12, 4, 2000))
+    >>> data = Dataset(
+    ...     signals=signals.astype(np.float32),
+    ...     shape=shape,
+    ...     material=np.array(["wood"] * 12),
+    ...     label=np.repeat([0, 1], 6),
+    ...     force_n=np.ones(12),
+    ...     speed_mm_s=np.full(12, 10.0),
+    ...     seed=np.arange(12),
+    ...     classes=("circle/wood", "square/wood"),
+    ... )
+    >>> d = diagnose(data)
+    >>> d.accuracy["shape"]["all"]
+    1.0
     """
     from models.features import FEATURE_NAMES, extract
     from models.scaling import FeatureScaler

@@ -14,11 +14,42 @@ from .reader import Store
 
 
 def load_dataset(path: str | Path, *, allow_incomplete: bool = False) -> Dataset:
-    """Read a store into a :class:`Dataset` (signals float32 ``(n, 4, T)``), checking
-    every chunk it reads and the per-trial arrays (:class:`DatasetDamaged` if any fails).
+    """Read a store into a :class:`Dataset`, checking every chunk it reads against its
+    checksum and the per-trial arrays against the stored configuration.
 
-    An incomplete store (an interrupted generation) raises ``DatasetError`` unless
-    ``allow_incomplete``, in which case only the finished chunks' trials are returned.
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        A dataset store written by ``tactile-synth generate`` (:func:`synth.generate`) or
+        ``tactile-synth import``.
+    allow_incomplete : bool, default False
+        Return the finished chunks' trials of an interrupted generation instead of
+        raising :class:`DatasetIncomplete`.
+
+    Returns
+    -------
+    Dataset
+        ``signals`` float32 ``(n, 4, 2000)`` and the aligned per-trial arrays; ``attrs``
+        holds the provenance (versions, configuration, creation time).
+
+    Raises
+    ------
+    DatasetDamaged
+        A chunk or per-trial array fails its check (the message names the file and the
+        repair command).
+    DatasetError
+        Not a dataset, another format version, or incomplete (one line saying what to run).
+
+    Examples
+    --------
+    >>> import tempfile, synth
+    >>> grid = synth.PRESETS["quick"].replace(
+    ...     shapes=("circle", "square"), materials=("wood",), trials_per_class=2
+    ... )
+    >>> path = synth.generate(grid, tempfile.mkdtemp() + "/ds", progress=False)
+    >>> data = synth.load_dataset(path)
+    >>> data.signals.shape, data.class_names
+    ((4, 4, 2000), ('circle/wood', 'square/wood'))
     """
     store = Store.open(path)
     path = store.path
