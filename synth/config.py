@@ -43,8 +43,14 @@ class Finger:
     #: pad (plausible 6-12 mm across, 1-4 mm thick; ``scripts/calibrate.py sweep``
     #: measures the thickness). Its stiffnesses follow (:attr:`pdms_shear_stiffness_n_m`,
     #: :attr:`pdms_pitch_stiffness_nm_rad`, :attr:`pdms_normal_stiffness_derived_n_m`).
+    #: 10 x 3 mm puts the shear mode at 380 Hz and the rocking mode at 310 Hz, above the
+    #: texture's tones (60-170 Hz from 6 to 14 mm/s) but inside the 20-400 Hz band: the
+    #: thinner 2 mm disc, whose modes lie above 400 Hz (470 and 500 Hz), rocks with a
+    #: mode the 0.5 ms step cannot integrate under stick-slip (MuJoCo diverges), so 3 mm
+    #: is the thinnest disc in half-millimetre steps the simulation carries. A limit of
+    #: the physics step, stated as such (``docs/simulator.md``, "The finger's mount").
     pdms_diameter_m: float = 0.010
-    pdms_thickness_m: float = 0.002
+    pdms_thickness_m: float = 0.003
     #: The support's compression stiffness as simulated. A bonded disc this squat is some
     #: 14 times stiffer in compression than in shear (:attr:`pdms_normal_stiffness_derived_n_m`,
     #: about 330 kN/m): its mode on the pad's mass would lie near 1.7 kHz, which the

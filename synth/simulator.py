@@ -67,12 +67,12 @@ def batches(n: int, size: int = CHUNK) -> list[slice]:
 #: the pad's lag behind its path and the threshold's position on the edges' rise move it.
 WINDOW_MARGIN_S = 0.1
 #: A lab's cut of the contact phase from the record (:func:`contact_phase_samples`): the
-#: plate's level of the front gauge is read over this stretch after the robot has reached
-#: speed and its start transient has died out, before the skin can touch the outline; an
-#: edge is where the gauge departs from that level by this fraction of its largest
-#: departure in the record.
+#: films' level on the plate is read over this stretch after the robot has reached speed
+#: and its start transient has died out, before the skin can touch the outline; an edge
+#: is where the films depart from that level by this fraction of their largest departure
+#: in the record.
 BASELINE_S = 0.03
-EDGE_THRESHOLD = 0.2
+EDGE_THRESHOLD = 0.05
 #: Largest tolerated gap between the finger and its commanded path: beyond the elastic lag
 #: of the PDMS and servo at an edge (a few mm), the finger is stuck.
 MAX_TRACKING_ERROR_M = 8e-3
@@ -127,8 +127,10 @@ def n_steps(config: SynthConfig, speed_mm_s: float, force_n: float) -> int:
     reach = touch_distance_m(config, force_n * (1 + 3 * var.force_rel))
     phase_m = shapes.dims.MAX_EXTENT_RATIO * SPECIMEN.outline_size_m + 2 * reach
     middle = max(m.approach_s + phase_m / (2 * speed), _earliest_middle_s(config))
-    total = m.settle_s + m.ramp_s + middle + WINDOW_S / 2 + var.window_jitter_s / 2
-    total += WINDOW_MARGIN_S
+    # The record runs to the later of the window's end and the exit edge's last touch
+    # (the window is cut between the two edges the signals show), plus the margin.
+    end = max(middle + WINDOW_S / 2 + var.window_jitter_s / 2, middle + phase_m / (2 * speed))
+    total = m.settle_s + m.ramp_s + end + WINDOW_MARGIN_S
     steps = round(total / m.timestep_s) + 2 * steps_per_sample(config)
     return _whole_periods(steps, m.control_steps)
 
@@ -227,6 +229,10 @@ def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
     k = steps_per_sample(config)
     window_start = k * round((t_middle - WINDOW_S / 2 + jitter) * SAMPLE_RATE_HZ)
 
+    # The record runs past the planned window's end and the exit edge's last touch.
+    record_end = max(
+        window_start + (N_SAMPLES + 1) * k, round((t_middle + half_phase_s) / mot.timestep_s)
+    )
     t = np.arange(n_steps(config, spec.speed_mm_s, spec.force_n)) * mot.timestep_s
     d = d_start + travel(t - mot.settle_s, speed, mot.ramp_s)
     c, s = math.cos(yaw), math.sin(yaw)
@@ -286,8 +292,7 @@ def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
         record_start=k * round(mot.settle_s * SAMPLE_RATE_HZ),
         jitter_s=float(jitter),
         steps=_whole_periods(
-            window_start + (N_SAMPLES + 1) * k + round(WINDOW_MARGIN_S / mot.timestep_s),
-            mot.control_steps,
+            record_end + round(WINDOW_MARGIN_S / mot.timestep_s), mot.control_steps
         ),
         noise_seed=noise_ss,
     )
@@ -409,17 +414,19 @@ _MECHANICS_COLUMNS = ("contact", "pad_pos", "contact_depth", "mount_force", "mou
 
 def contact_phase_samples(record: np.ndarray, baseline: slice) -> tuple[int, int] | None:
     """First and last sample of the contact phase in a trial's DAQ record ``(4, n)``, as a
-    lab cuts it: the front gauge (channel 3, the bending in the sliding plane) keeps its
-    level while the skin slides on the plate and departs from it when the skin meets an
-    edge. The level is the gauge's median over ``baseline`` (samples on the plate); the
-    phase runs from the first to the last sample whose departure reaches
-    :data:`EDGE_THRESHOLD` of the record's largest. ``None`` if the gauge never departs."""
-    sg = np.asarray(record[2], dtype=float)
-    departure = np.abs(sg - np.median(sg[baseline]))
-    peak = departure.max()
+    lab cuts it: the films ring hard when the skin meets or leaves an edge and stay
+    within millivolts while it slides on a face. The films' larger magnitude, after its
+    level over ``baseline`` (samples on the plate) is taken off, marks an edge where it
+    reaches :data:`EDGE_THRESHOLD` of its largest value in the record after ``baseline``;
+    the phase runs from the first such sample to the last. ``None`` if the films never
+    depart from the plate's level."""
+    films = np.abs(np.asarray(record[:2], dtype=float))
+    level = films[:, baseline].max(axis=1, keepdims=True)
+    departure = (films - level).max(axis=0)[baseline.stop :]
+    peak = departure.max() if departure.size else 0.0
     if not peak > 0:
         return None
-    above = np.flatnonzero(departure >= EDGE_THRESHOLD * peak)
+    above = np.flatnonzero(departure >= EDGE_THRESHOLD * peak) + baseline.stop
     return int(above[0]), int(above[-1])
 
 
@@ -496,15 +503,18 @@ def _process(
             dc_coupled=np.array([0.0, 0.0, 1.0, 1.0]),  # PVDF AC-coupled, strain gauges DC
             amplifier_noise_v=amp_noise,
         )[0]
-        phase = contact_phase_samples(record, base) if finite[i] else None
-        if phase is None:
-            if not finite[i]:
-                _check_trial(p, {}, False)
-            raise SimulationError(
-                f"the gauges show no edge in the record while simulating {_describe(p.spec)}"
-            )
-        middle = (phase[0] + phase[1]) / 2 + p.jitter_s * SAMPLE_RATE_HZ
-        first = round(middle - N_SAMPLES / 2)
+        if not finite[i]:
+            _check_trial(p, {}, False)
+        if mot.raised_shape:
+            phase = contact_phase_samples(record, base)
+            if phase is None:
+                raise SimulationError(
+                    f"the gauges show no edge in the record while simulating {_describe(p.spec)}"
+                )
+            middle = (phase[0] + phase[1]) / 2 + p.jitter_s * SAMPLE_RATE_HZ
+            first = round(middle - N_SAMPLES / 2)
+        else:  # the bare plate (calibration runs): no edge to cut at, the planned window
+            first = (p.window_start - p.record_start) // k
         first = min(max(first, base.stop), n_rec - N_SAMPLES)
         window = slice(first, first + N_SAMPLES)
         at = at_rec[window]

@@ -23,6 +23,10 @@ from synth.trial import SAMPLE_RATE_HZ, TrialSpec
 
 NOMINAL = SynthConfig(variability=SynthConfig().variability.nominal())
 FLAT = dataclasses.replace(NOMINAL, motion=dataclasses.replace(NOMINAL.motion, raised_shape=False))
+#: A softer PDMS support (6 mm thick), on which a velocity-weakening law sticks and slips.
+COMPLIANT = dataclasses.replace(
+    FLAT, finger=dataclasses.replace(FLAT.finger, pdms_thickness_m=0.006)
+)
 PVDF, SG = slice(0, 2), slice(2, 4)
 STEADY = slice(300, None)
 
@@ -93,13 +97,16 @@ def test_slides_start_clear_of_the_outline_without_a_force_spike(speed):
 
 
 def test_the_window_is_centred_on_the_contact_phase_at_every_speed():
-    """Slower runs see less of the shape around its middle: the window's middle is the
-    middle of the skin's contact with the outline, whatever the speed."""
+    """Slower runs see less of the shape around its middle: the window, cut where the
+    recorded films ring at the two edges, is centred on the skin's contact with the
+    outline whatever the speed. The films ring from the moment the skin loads the entry
+    edge to the moment the lagging pad leaves the exit edge, so the cut's middle lies a
+    little past the outline's centre (0.5-1.0 mm of path from 6 to 14 mm/s)."""
     config = NOMINAL
     for speed in (6.0, 10.0, 14.0):
         trial = synth.simulate("square", "resin", speed_mm_s=speed, config=config)
         x = trial.truth["commanded_x_m"]  # the square's contact phase is centred on x = 0
-        assert abs(x[1000]) < 0.1e-3, (speed, x[1000])
+        assert 0.0 < x[1000] < 1.5e-3, (speed, x[1000])
         assert x[-1] - x[0] == pytest.approx(2.0 * speed * 1e-3, rel=0.01)
 
 
@@ -153,16 +160,21 @@ def test_friction_ratio_follows_each_materials_law():
         law = FLAT.materials[material].friction
         want = law.kinetic * normal.mean() ** law.load_exponent
         assert ratios[material] == pytest.approx(want, rel=0.05), (material, ratios[material])
-    by_mu = sorted(synth.MATERIAL_NAMES, key=lambda m: FLAT.materials[m].friction.kinetic)
-    assert sorted(ratios, key=ratios.get) == by_mu
+    # A law of another coefficient is followed as well (the default materials share one).
+    law = FrictionLaw(kinetic=0.5, static=0.6)
+    truth = _flat("wood", config=_with_material(FLAT, "wood", friction=law)).truth
+    normal = truth["normal_force_n"][STEADY]
+    ratio = truth["tangential_force_n"][STEADY].mean() / normal.mean()
+    assert ratio == pytest.approx(0.5 * normal.mean() ** law.load_exponent, rel=0.05)
 
 
 def test_static_friction_gives_stick_slip_that_emerges_from_the_simulation():
-    """A velocity-weakening law (static well above kinetic) on the compliant finger sticks
-    and slips: the skin's slip speed alternates between near zero and several times the
+    """A velocity-weakening law (static well above kinetic) on a compliant finger (a 6 mm
+    PDMS support: the default 3 mm one is too stiff for this law to stick) sticks and
+    slips: the skin's slip speed alternates between near zero and several times the
     robot's speed, while the robot moves steadily."""
     law = FrictionLaw(kinetic=0.4, static=1.6, stribeck_velocity_m_s=2e-3, load_exponent=0.0)
-    config = _with_material(FLAT, "aluminum", friction=law)
+    config = _with_material(COMPLIANT, "aluminum", friction=law)
     slip = _flat("aluminum", config=config).truth["slip_speed_m_s"]
     assert (slip < 2e-3).mean() > 0.2  # stuck a good part of the time
     assert slip.max() > 50e-3  # and snapping free well above the 10 mm/s drive
@@ -193,8 +205,11 @@ def test_a_stuck_pad_feels_no_texture_while_the_robot_moves():
     magnitude slower than in steady sliding, and the PVDF texture band (80-120 Hz) away
     from the snaps (40 ms either side: the pad rings after each) is far quieter. The
     films read the texture here through their bending alone: through the shear coupling
-    they also read the stick-slip's own traction, which is not texture."""
-    bending = dataclasses.replace(FLAT, pvdf=dataclasses.replace(FLAT.pvdf, shear_strain_per_n=0))
+    they also read the stick-slip's own traction, which is not texture. The finger's
+    support is a compliant 6 mm one, on which the law sticks and slips."""
+    bending = dataclasses.replace(
+        COMPLIANT, pvdf=dataclasses.replace(FLAT.pvdf, shear_strain_per_n=0)
+    )
     sliding = _flat("aluminum", config=_fine_texture_config(bending))
     law = FrictionLaw(kinetic=0.4, static=2.0, stribeck_velocity_m_s=2e-3, load_exponent=0.0)
     sticky = _flat("aluminum", config=_fine_texture_config(bending, law))
@@ -842,7 +857,8 @@ def test_the_felt_surface_follows_the_simulated_load():
         real, height_m=np.repeat(levels[:, None], n, axis=1), slope=np.zeros((levels.size, n))
     )
     plan = dataclasses.replace(plan, loop=dataclasses.replace(plan.loop, surface=marker))
-    sens, heights = sim._roll([plan], [mujoco.MjData(plan.model)], config)
+    sens, surface = sim._roll([plan], [mujoco.MjData(plan.model)], config)
+    heights = surface[..., 0]
     cols = scene_mod.sensor_columns()
     found = sens[0, :, cols["contact"].start] > 0
     normal = np.where(found, -sens[0, :, cols["contact"].start + 3], 0.0)
