@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from benchmark import steady
 from shapes import SHAPE_NAMES
 from synth import CHANNELS, CLASS_NAMES, MATERIAL_NAMES, SAMPLE_RATE_HZ, Dataset
 from synth.atomic import check_out_dir
@@ -276,6 +277,8 @@ class Diagnosis:
     confusion: dict[str, np.ndarray] = field(repr=False)
     spectra: PvdfSpectra = field(repr=False)
     sg_traces: SgTraces = field(repr=False)
+    #: The steady-sliding report (:func:`benchmark.steady.steady_diagnosis`).
+    steady: dict[str, Any] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """Every number as JSON-friendly types (the curves only by reference and summary);
@@ -298,6 +301,7 @@ class Diagnosis:
                 "notes": self.notes,
                 "per_shape": self.per_shape,
                 "per_material": self.per_material,
+                "steady": self.steady,
                 "per_class": self.per_class,
                 "per_condition": self.per_condition,
                 "confused_pairs": {
@@ -559,6 +563,7 @@ def diagnose(
         confusion=confusion,
         spectra=_pvdf_spectra(data, cond, conditions, materials),
         sg_traces=_sg_traces(data, cond, conditions, shapes),
+        steady=steady.steady_diagnosis(data.signals, data.material),
     )
 
 
@@ -668,6 +673,7 @@ def summary_table(diag: Diagnosis) -> str:
             "most confused, all features: "
             + ", ".join(f"{p.a} ~ {p.b} {p.share:.2f}" for p in pairs)
         )
+    lines += steady.summary_lines(diag.steady, diag.accuracy.get("material"))
     lines += [f"note: {t}: {text}" for t, text in diag.notes.items() if t in targets]
     return "\n".join(lines)
 
@@ -811,6 +817,7 @@ def markdown(diag: Diagnosis, figures: dict[str, str] | None = None) -> str:
         for k, t in extra:
             md += [f"![{t}]({figures[k]})", ""]
         md.pop()
+    md += steady.markdown_lines(diag.steady, diag.accuracy.get("material"))
     md += [
         "",
         f"Numbers: `{JSON_NAME}`; curves: `{CURVES_NAME}` (numpy, no pickle). What each "
