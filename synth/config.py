@@ -337,16 +337,16 @@ class Variability:
     #: pose within +-0.1 mm (data sheet; ISO 9283 repeatability, the mean distance plus
     #: 3 standard deviations), so the press depth scatters by 0.1 mm / 3 = 0.033 mm, and
     #: the load by that times the stiffness of what the press compresses in series: the
-    #: arm's servo (20 kN/m), the PDMS support (2.5 kN/m) and the skin's Hertz contact
-    #: (1.8 kN/m at 1 N, 0.82 mm deep), 1.0 kN/m in all, so 3.3 % at 1 N (2.8 % for a
-    #: Gaussian scatter in three axes, 3.8 % for one along the press alone). A force loop
-    #: is not known to do better at this load: a UR5e in force mode, with its wrist
-    #: force/torque sensor, misses set points of 1-10 N by 0.38 N on average (Trochimczuk
-    #: et al. 2026, Sensors 26, 1709), and the paper's UR5 has no wrist sensor. So 3.3 %
-    #: lies at the lower end of what the cited figures allow (``docs/simulator.md``, "The
-    #: force scatter"); ``scripts/calibrate.py force`` derives it from the configured
-    #: finger.
-    force_rel: float = 0.033
+    #: arm's servo (20 kN/m), the PDMS support as simulated (21 kN/m) and the skin's
+    #: Hertz contact (1.8 kN/m at 1 N, 0.82 mm deep), 1.56 kN/m in all, so 5.2 % at 1 N
+    #: (4.3 % for a Gaussian scatter in three axes, 6.0 % for one along the press
+    #: alone). A force loop is not known to do better at this load: a UR5e in force
+    #: mode, with its wrist force/torque sensor, misses set points of 1-10 N by 0.38 N on
+    #: average (Trochimczuk et al. 2026, Sensors 26, 1709). The wrist sensor's own noise
+    #: within a stroke is :attr:`Motion.wrist_force_noise_n`. ``scripts/calibrate.py
+    #: force`` derives this value from the configured finger (``docs/simulator.md``, "The
+    #: force scatter").
+    force_rel: float = 0.052
     #: Relative error of the path speed: not measured for this rig either; an assumption.
     speed_rel: float = 0.01
     #: Stroke-to-stroke scatter of the friction coefficient on one specimen (coefficient
@@ -450,10 +450,12 @@ class PVDF:
     #: ``E t`` balance: 28 um PVDF gives 14 um (the film's bonded face) on the 23 um
     #: polyester stock (4-5 GPa), 21 um on the 36 um stock and about 67 um on the
     #: manual's laminated elements (125 um). The finger's description does not give the
-    #: films' carrier; the default takes the thinnest standard polyester stock on which
-    #: the films carry more of the material than of the shape information
-    #: (``scripts/calibrate.py carrier``, docs/simulator.md): 36 um.
-    neutral_axis_offset_m: float = 21.1e-6
+    #: films' carrier: a free choice between the thinnest standard polyester stock,
+    #: 23 um, and the laminated elements' 125 um (Measurement Specialties, Piezo Film
+    #: Sensors Technical Manual). The default is the stock nearest the middle of that
+    #: range, 75 um: 41.2 um (``scripts/calibrate.py carrier`` derives both of the
+    #: carrier's figures; the sweep measures the range).
+    neutral_axis_offset_m: float = 41.2e-6
     #: In-plane strain of a film per newton of tangential traction on the skin. A
     #: tangential point load ``Q`` on an elastic half-space (Cerruti; Johnson, *Contact
     #: Mechanics*, 1985, ch. 3) moves the surface along the load by
@@ -463,11 +465,11 @@ class PVDF:
     #: in-plane than the skin it is bonded in, which carries that strain over a depth of
     #: the order of ``x``; the film takes the skin's in-plane force instead,
     #: ``(1 + nu) Q / (pi x)`` per unit width, and strains by that over its in-plane
-    #: stiffness ``E t`` plus its carrier's (28 um PVDF at 3 GPa, 36 um polyester at
-    #: 4.5 GPa: 246 kN/m): ``(1 + nu) / (pi x sum(E t))`` = 4.8e-4 per newton. The
+    #: stiffness ``E t`` plus its carrier's (28 um PVDF at 3 GPa, 75 um polyester at
+    #: 4.5 GPa: 422 kN/m): ``(1 + nu) / (pi x sum(E t))`` = 2.8e-4 per newton. The
     #: depth the skin carries the load over is known only to within a factor of about
     #: 1.5 (the distance to the film, 4 mm, to its length, 5 mm, and below).
-    shear_strain_per_n: float = 4.82e-4
+    shear_strain_per_n: float = 2.81e-4
     #: Electrode length (along the sliding direction) and width: a strip that fits on the
     #: pad's front / rear flank.
     length_m: float = 5.0e-3
