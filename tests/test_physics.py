@@ -1025,11 +1025,11 @@ def test_the_texture_table_interpolates_as_look_up_does():
 
 @pytest.mark.parametrize("speed", [6.0, 10.0, 14.0])
 def test_a_sinusoidal_surface_peaks_the_films_at_speed_over_wavelength(speed):
-    """A pure sinusoidal surface (0.2 mm wavelength, 1 um deep, no roughness): while the
+    """A pure sinusoidal surface (0.24 mm wavelength, 2 um amplitude, no roughness): while the
     pad slides over the square's top (never stuck), the films' spectrum peaks at the
     measured speed over the wavelength within 5 %, with the default finger, films and
     acquisition, over several seeds."""
-    wave = Texture(0.0, 1e-4, (Periodic(wavelength_m=0.2e-3, amplitude_m=1e-6),))
+    wave = Texture(0.0, 1e-4, (Periodic(wavelength_m=0.24e-3, amplitude_m=2e-6),))
     config = _with_material(SynthConfig(), "resin", texture=wave)
     specs = [TrialSpec("square", "resin", speed_mm_s=speed, seed=s) for s in range(3)]
     for trial in simulate_batch(specs, config=config):
@@ -1045,4 +1045,4 @@ def test_a_sinusoidal_surface_peaks_the_films_at_speed_over_wavelength(speed):
         )
         band = (f > 20) & (f < 400)
         peak = f[band][np.argmax(p[band])]
-        assert peak == pytest.approx(v / 0.2e-3, rel=0.05), (trial.spec.seed, peak, v / 0.2e-3)
+        assert peak == pytest.approx(v / 0.24e-3, rel=0.05), (trial.spec.seed, peak, v / 0.24e-3)
