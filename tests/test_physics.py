@@ -410,15 +410,15 @@ def test_pvdf_film_capacitance_comes_from_its_geometry():
 
 
 def test_the_films_neutral_axis_offset_is_its_carriers():
-    """The default offset is 28 um PVDF on 36 um polyester; 23 um stock puts the axis at the
+    """The default offset is 28 um PVDF on 75 um polyester; 23 um stock puts the axis at the
     film's bonded face (14 um), a 125 um laminate at ~67 um; a thicker carrier moves the
     axis away from the film."""
     pv, finger = NOMINAL.pvdf, NOMINAL.finger
     for polyester_pa in (4.0e9, 4.5e9, 5.0e9):
-        thin, _ = sensors.film_on_carrier(pv, finger, 36e-6, polyester_pa)
-        assert thin == pytest.approx(pv.neutral_axis_offset_m, rel=0.08), polyester_pa
-    thin, _ = sensors.film_on_carrier(pv, finger, 36e-6, 4.5e9)
-    assert thin == pytest.approx(pv.neutral_axis_offset_m, rel=0.02)
+        default, _ = sensors.film_on_carrier(pv, finger, 75e-6, polyester_pa)
+        assert default == pytest.approx(pv.neutral_axis_offset_m, rel=0.08), polyester_pa
+    default, _ = sensors.film_on_carrier(pv, finger, 75e-6, 4.5e9)
+    assert default == pytest.approx(pv.neutral_axis_offset_m, rel=0.02)
     thinnest, _ = sensors.film_on_carrier(pv, finger, 23e-6, 4.5e9)
     assert thinnest == pytest.approx(pv.thickness_m / 2, rel=0.02)
     laminate, _ = sensors.film_on_carrier(pv, finger, 125e-6, 4.5e9)
@@ -428,7 +428,7 @@ def test_the_films_neutral_axis_offset_is_its_carriers():
     offset, _ = sensors.film_on_carrier(itself, finger, pv.thickness_m, 3e9)
     assert offset == pytest.approx(pv.thickness_m / 2)
     offsets = [sensors.film_on_carrier(pv, finger, t, 4.5e9)[0] for t in (10e-6, 50e-6, 1e-4)]
-    assert offsets[0] < thin < offsets[1] < offsets[2] < laminate
+    assert offsets[0] < thinnest < offsets[1] < default < offsets[2] < laminate
 
 
 def test_a_film_bending_about_its_own_mid_plane_gives_no_charge():
@@ -508,21 +508,21 @@ def test_the_traction_shortens_the_front_film_and_stretches_the_rear_one():
 
 def test_the_films_shear_coupling_is_the_cerruti_load_over_their_stiffness():
     """(1 + nu) / (pi x sum(E t)) for the skin's Poisson ratio, the film's distance from
-    the contact, and the film on its 36 um polyester carrier (4-5 GPa); a thicker
+    the contact, and the film on its 75 um polyester carrier (4-5 GPa); a thicker
     carrier stiffens the laminate and lowers it (1.83e-4 per newton on 125 um)."""
     pv, finger = FLAT.pvdf, FLAT.finger
     for polyester_pa in (4.0e9, 4.5e9, 5.0e9):
-        stiffness = pv.youngs_modulus_pa * pv.thickness_m + polyester_pa * 36e-6
+        stiffness = pv.youngs_modulus_pa * pv.thickness_m + polyester_pa * 75e-6
         derived = (1 + finger.skin_poisson) / (math.pi * pv.offset_m * stiffness)
-        assert pv.shear_strain_per_n == pytest.approx(derived, rel=0.08), polyester_pa
-        _, shear = sensors.film_on_carrier(pv, finger, 36e-6, polyester_pa)
+        assert pv.shear_strain_per_n == pytest.approx(derived, rel=0.1), polyester_pa
+        _, shear = sensors.film_on_carrier(pv, finger, 75e-6, polyester_pa)
         assert shear == pytest.approx(derived, rel=1e-12), polyester_pa
-    _, thin = sensors.film_on_carrier(pv, finger, 36e-6, 4.5e9)
-    assert thin == pytest.approx(pv.shear_strain_per_n, rel=0.02)
+    _, default = sensors.film_on_carrier(pv, finger, 75e-6, 4.5e9)
+    assert default == pytest.approx(pv.shear_strain_per_n, rel=0.02)
     _, laminate = sensors.film_on_carrier(pv, finger, 125e-6, 4.5e9)
     assert laminate == pytest.approx(1.83e-4, rel=0.01)
     shears = [sensors.film_on_carrier(pv, finger, t, 4.5e9)[1] for t in (10e-6, 50e-6, 1e-4)]
-    assert shears[0] > thin > shears[1] > shears[2] > laminate
+    assert shears[0] > shears[1] > default > shears[2] > laminate
 
 
 def test_same_seed_is_bit_identical_whatever_the_batch():
@@ -580,9 +580,9 @@ def test_config_round_trips_and_rejects_unknown_keys():
 
 def test_a_finger_that_loses_contact_raises():
     """Lift-off is an error naming the trial, never silently returned data."""
-    # 0.3 mm corrugations 1 mm apart at 20 mm/s shake the specimen far harder than a
-    # 0.05 N push can hold the skin against: it takes off.
-    grain = Texture(0.0, 1e-4, (Periodic(wavelength_m=1e-3, amplitude_m=3e-4),))
+    # 0.5 mm corrugations 4 mm apart at 20 mm/s shake the specimen far harder than a
+    # 0.05 N push can hold the skin against: it takes off for over a tenth of a second.
+    grain = Texture(0.0, 1e-4, (Periodic(wavelength_m=4e-3, amplitude_m=5e-4),))
     config = _with_material(FLAT, "wood", texture=grain)
     with pytest.raises(SimulationError, match=r"lost contact.*shape='square'"):
         synth.simulate("square", "wood", force_n=0.05, speed_mm_s=20.0, config=config)
