@@ -61,9 +61,10 @@ import numpy as np
 from shapes import SHAPE_NAMES
 
 from . import atomic
+from .config import SynthConfig
 from .dataset import Dataset
 from .materials import MATERIAL_NAMES
-from .presets import GenerationConfig, TrialPlan, condition_name, plan
+from .presets import PRESETS, GenerationConfig, TrialPlan, condition_name, plan
 from .trial import CHANNELS, CLASS_NAMES, N_SAMPLES, SAMPLE_RATE_HZ, TrialSpec, class_index
 
 #: Bumped whenever the layout above changes incompatibly or the simulator writes other
@@ -571,6 +572,23 @@ def _rebuild_advice(path: Path, meta: dict[str, Any]) -> str:
     """How to rebuild the whole store ``path`` from what made it."""
     if store_kind(meta) == KIND_IMPORTED:
         return f"import it again with `{reimport_command(path, meta)}`"
+    try:
+        grid = GenerationConfig.from_dict(meta["config"])
+        if grid.synth is not None:
+            SynthConfig.from_dict(grid.synth)
+    except (KeyError, TypeError, ValueError):
+        # A configuration this version no longer reads (a parameter renamed or derived
+        # now): the store's grid is regenerated under the current parameters.
+        preset = meta.get("config", {}).get("preset") if isinstance(meta, dict) else None
+        if isinstance(preset, str) and preset in PRESETS:
+            return (
+                f"its parameters predate this version's: regenerate the dataset with "
+                f"`tactile-synth generate --preset {preset} --out {path} --overwrite`"
+            )
+        return (
+            "its parameters predate this version's: regenerate it with your original "
+            "`tactile-synth generate` command plus --overwrite"
+        )
     return (
         f"regenerate the dataset with `tactile-synth generate --from-config "
         f"{path} --out {path} --overwrite`"
