@@ -61,7 +61,6 @@ import numpy as np
 from shapes import SHAPE_NAMES
 
 from . import atomic
-from .config import SynthConfig
 from .dataset import Dataset
 from .materials import MATERIAL_NAMES
 from .presets import PRESETS, GenerationConfig, TrialPlan, condition_name, plan
@@ -572,10 +571,12 @@ def _rebuild_advice(path: Path, meta: dict[str, Any]) -> str:
     """How to rebuild the whole store ``path`` from what made it."""
     if store_kind(meta) == KIND_IMPORTED:
         return f"import it again with `{reimport_command(path, meta)}`"
+    from . import generation  # the generator's own check of a stored configuration
+
     try:
         grid = GenerationConfig.from_dict(meta["config"])
         if grid.synth is not None:
-            SynthConfig.from_dict(grid.synth)
+            generation.validate_synth_config(grid.synth)
     except (KeyError, TypeError, ValueError):
         # A configuration this version no longer reads (a parameter renamed or derived
         # now): the store's grid is regenerated under the current parameters.
