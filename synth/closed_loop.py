@@ -6,17 +6,20 @@ between periods this module reads each trial's simulated state from its sensors 
 the next period's inputs from it:
 
 - **force loop** (the robot's force mode): an integral controller on the normal load the
-  wrist measures (the force the z drive transmits, averaged over the period) moves the
-  set point of the stiff z servo; its gain gives the closed loop ``Motion.force_loop_bandwidth_hz``
-  on the series stiffness of servo, PDMS support and skin contact;
+  wrist sensor reads (the force the z drive transmits, averaged over the period, plus the
+  sensor's noise, ``Motion.wrist_force_noise_n``) moves the set point of the stiff z
+  servo, which the arm interpolates over the control period; its gain gives the closed
+  loop ``Motion.force_loop_bandwidth_hz`` on the series stiffness of servo, PDMS support
+  and skin contact;
 - **friction**: the skin's coefficient follows the material's :class:`FrictionLaw` at the
   simulated slip speed of the skin's bottom point and the simulated normal force;
 - **texture**: the height and slope of the felt surface under the skin's contacting
   material (the skin's bottom point: it moves over the surface only when the skin
   slips, so a stuck pad feels a still surface), extrapolated over the period with its
   simulated slip velocity, and felt by the ridges inside the contact of the simulated
-  normal load, drive the specimen's height and the slope's tangential push on the pad
-  (at the contact point).
+  normal load, drive the specimen's height and the slope's tangential push on the skin
+  (at the contact point; the push is returned beside the height, so the films read it as
+  part of the skin's traction).
 
 Nothing here sees the planned path except the x/y servo set points themselves; every
 texture and friction input comes from where the pad is and how it moves. Each trial's
