@@ -160,12 +160,33 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
     (
         "variability",
         "force_rel",
-        (0.02, 0.033, 0.06, 0.1, 0.2),
-        "stroke-to-stroke error of the normal force at 1 N: 3.3 % from a UR5's +-0.1 mm pose "
-        "repeatability against the servo, PDMS and skin in series (the default), 6 % against "
-        "the skin's Hertz indentation alone, up to the 0.38 N "
-        "a UR5e's force mode misses 1-10 N set points by (Trochimczuk et al. 2026); 2 % a "
-        "tight servo",
+        (0.02, 0.052, 0.1, 0.2),
+        "stroke-to-stroke error of the normal force at 1 N: 5.2 % from a UR5's +-0.1 mm pose "
+        "repeatability against the servo, PDMS and skin in series (the default), up to the "
+        "0.38 N a UR5e's force mode misses 1-10 N set points by (Trochimczuk et al. 2026); "
+        "2 % a tight servo",
+    ),
+    (
+        "motion",
+        "wrist_force_noise_n",
+        (0.0, 0.015, 0.05, 0.1),
+        "the wrist force sensor's noise per 10 ms reading: an FT 300's 0.1 N noise-free "
+        "resolution read as 6.6 standard deviations (the default) or as the RMS; 0 an ideal "
+        "sensor",
+    ),
+    (
+        "finger",
+        "pdms_thickness_m",
+        (0.003, 0.004, 0.006),
+        "the PDMS support's thickness (a free choice, 1-4 mm plausible): modes from 380 / "
+        "310 Hz (shear / rocking, 3 mm) down to 270 / 165 Hz (6 mm); 2 mm diverges at the "
+        "0.5 ms step",
+    ),
+    (
+        "finger",
+        "pdms_damping_ratio",
+        (0.05, 0.15, 0.2),
+        "damping of the PDMS modes: half a silicone's loss tangent (0.1-0.4)",
     ),
     (
         "pvdf",
@@ -176,9 +197,10 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
     (
         "pvdf",
         "shear_strain_per_n",
-        (3.2e-4, 4.82e-4, 7.2e-4),
-        "the films' shear coupling on their 36 um carrier: the depth the skin carries the "
-        "traction over, known to within a factor of 1.5",
+        (1.9e-4, 2.81e-4, 4.2e-4),
+        "the films' shear coupling on their 75 um carrier: the depth the skin carries the "
+        "traction over, known to within a factor of 1.5 (the carrier's own range, 23-125 "
+        "um, is `calibrate.py carrier`'s)",
     ),
     (
         "finger",
@@ -196,7 +218,7 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
         *TEXTURE_SCALE,
         (0.0, 0.5, 1.0, 2.0),
         "sensitivity, not a calibration: every material's texture scaled; at 0 the "
-        "materials differ by their friction alone",
+        "materials do not differ at all (they share the silicone's friction law)",
     ),
 )
 
@@ -397,6 +419,47 @@ def cmd_force(_args: argparse.Namespace) -> int:
     return 0
 
 
+def mount_figures(config: synth.SynthConfig) -> dict:
+    """The PDMS support's stiffnesses from its geometry and modulus, the simulated
+    compression stand-in, and the pad's modes on it (compression with the skin's Hertz
+    contact at the nominal force beside the support)."""
+    from synth.closed_loop import skin_stiffness_n_m
+    from synth.presets import NOMINAL_FORCE_N
+
+    f = config.finger
+    return {
+        "modulus_pa": f.pdms_modulus_pa,
+        "diameter_m": f.pdms_diameter_m,
+        "thickness_m": f.pdms_thickness_m,
+        "shape_factor": f.pdms_shape_factor,
+        "shear_n_m": f.pdms_shear_stiffness_n_m,
+        "compression_derived_n_m": f.pdms_normal_stiffness_derived_n_m,
+        "compression_simulated_n_m": f.pdms_normal_stiffness_n_m,
+        "pitch_nm_rad": f.pdms_pitch_stiffness_nm_rad,
+        "modes_hz": f.mount_modes_hz(skin_stiffness_n_m(config, NOMINAL_FORCE_N)),
+    }
+
+
+def cmd_mount(args: argparse.Namespace) -> int:
+    got = mount_figures(_configured(args.set))
+    print(
+        f"PDMS disc {got['diameter_m'] * 1e3:g} mm across, {got['thickness_m'] * 1e3:g} mm "
+        f"thick, E {got['modulus_pa'] / 1e6:g} MPa (shape factor {got['shape_factor']:.2f})"
+    )
+    print(
+        f"shear {got['shear_n_m'] / 1e3:.1f} kN/m, compression "
+        f"{got['compression_derived_n_m'] / 1e3:.0f} kN/m (simulated: "
+        f"{got['compression_simulated_n_m'] / 1e3:.0f} kN/m), rocking "
+        f"{got['pitch_nm_rad']:.3f} N m/rad"
+    )
+    modes = got["modes_hz"]
+    print(
+        f"modes on the pad: shear {modes['shear']:.0f} Hz, compression (simulated, skin "
+        f"beside it) {modes['normal']:.0f} Hz, rocking {modes['pitch']:.0f} Hz"
+    )
+    return 0
+
+
 #: Round post-amplifier gains (1-2-5 series) the gain command chooses from.
 ROUND_GAINS: tuple[float, ...] = (0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0)
 
@@ -462,8 +525,7 @@ CARRIER_MODULUS_PA = 4.5e9
 #: Carrier thicknesses ``carrier`` reports by default: the standard polyester film
 #: stocks, from the thinnest to the laminated elements' (Measurement Specialties, Piezo
 #: Film Sensors Technical Manual: 125 um polyester under 28 um film). The defaults
-#: assume 36 um, the thinnest on which the films carry more of the material than of the
-#: shape information (docs/simulator.md).
+#: assume 75 um, the stock nearest the middle of that range (docs/simulator.md).
 CARRIER_THICKNESSES_M = (23e-6, 36e-6, 50e-6, 75e-6, 125e-6)
 
 
@@ -1144,6 +1206,9 @@ def main(argv: list[str] | None = None) -> int:
     sub.add_parser(
         "force", help="the stroke-to-stroke force scatter from the arm's repeatability"
     ).set_defaults(func=cmd_force)
+    p = sub.add_parser("mount", help="the PDMS support's stiffnesses and the pad's modes")
+    _add_set_option(p, "the finger to derive")
+    p.set_defaults(func=cmd_mount)
     p = sub.add_parser("gain", help="the PVDF post-amplifier gain")
     _add_set_option(p, "size the gain for this configuration, as whatif sets it")
     p.set_defaults(func=cmd_gain)

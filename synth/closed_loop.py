@@ -6,17 +6,20 @@ between periods this module reads each trial's simulated state from its sensors 
 the next period's inputs from it:
 
 - **force loop** (the robot's force mode): an integral controller on the normal load the
-  wrist measures (the force the z drive transmits, averaged over the period) moves the
-  set point of the stiff z servo; its gain gives the closed loop ``Motion.force_loop_bandwidth_hz``
-  on the series stiffness of servo, PDMS support and skin contact;
+  wrist sensor reads (the force the z drive transmits, averaged over the period, plus the
+  sensor's noise, ``Motion.wrist_force_noise_n``) moves the set point of the stiff z
+  servo, which the arm interpolates over the control period; its gain gives the closed
+  loop ``Motion.force_loop_bandwidth_hz`` on the series stiffness of servo, PDMS support
+  and skin contact;
 - **friction**: the skin's coefficient follows the material's :class:`FrictionLaw` at the
   simulated slip speed of the skin's bottom point and the simulated normal force;
 - **texture**: the height and slope of the felt surface under the skin's contacting
   material (the skin's bottom point: it moves over the surface only when the skin
   slips, so a stuck pad feels a still surface), extrapolated over the period with its
   simulated slip velocity, and felt by the ridges inside the contact of the simulated
-  normal load, drive the specimen's height and the slope's tangential push on the pad
-  (at the contact point).
+  normal load, drive the specimen's height and the slope's tangential push on the skin
+  (at the contact point; the push is returned beside the height, so the films read it as
+  part of the skin's traction).
 
 Nothing here sees the planned path except the x/y servo set points themselves; every
 texture and friction input comes from where the pad is and how it moves. Each trial's
@@ -31,7 +34,7 @@ import math
 import threading
 import time
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
@@ -55,7 +58,9 @@ class LoopTrial:
     factor; surface: the felt texture along the path direction ``direction`` (unit x/y
     vector), whose path coordinate is ``s = p . direction`` (a :class:`LoadedSurface` is
     read at the simulated normal load, a :class:`FeltSurface` is felt the same under any
-    load); z_ref0: initial z set point.
+    load); z_ref0: initial z set point; wrist_noise_n: the wrist force sensor's noise on
+    each of its readings, at ``Motion.wrist_sensor_rate_hz`` from the first step (a
+    control period reads the latest reading; empty: a noiseless sensor).
     """
 
     x_ref: np.ndarray
@@ -66,6 +71,7 @@ class LoopTrial:
     surface: FeltSurface | LoadedSurface
     direction: tuple[float, float]
     z_ref0: float
+    wrist_noise_n: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 def skin_stiffness_n_m(config: SynthConfig, force_n: float) -> float:
@@ -146,7 +152,8 @@ CLOCK_START_S = 1.0
 
 class ClosedLoop:
     """Runs a batch of same-shape trials (``models`` share one scene) to ``steps`` steps;
-    returns sensordata ``(b, steps, nsensordata)`` and the specimen heights ``(b, steps)``.
+    returns sensordata ``(b, steps, nsensordata)`` and the surface's inputs ``(b, steps,
+    2)``: the specimen's height and the texture's push on the skin along the path.
     """
 
     def __init__(
@@ -183,6 +190,12 @@ class ClosedLoop:
         self.x_ref = np.stack([_extend(t.x_ref, n_ref) for t in self.trials])
         self.y_ref = np.stack([_extend(t.y_ref, n_ref) for t in self.trials])
         self.z_ref = np.array([t.z_ref0 for t in self.trials])
+        # The wrist sensor's noise per reading; a batch-mate's longer path reads zeros
+        # beyond a trial's own readings, after its window.
+        n_read = max([t.wrist_noise_n.size for t in self.trials] + [1])
+        self.wrist_noise = np.zeros((b, n_read))
+        for i, t in enumerate(self.trials):
+            self.wrist_noise[i, : t.wrist_noise_n.size] = t.wrist_noise_n
         self.b = b
         # A specimen of several convex pieces: one contact per region of its surface.
         self.pieces = (
@@ -229,8 +242,8 @@ class ClosedLoop:
         (the rest of the run's time is its set-up and the controller's and the surface's
         work between periods), for profiling. MuJoCo runs without its profiling timers
         (:func:`timers_off`)."""
-        sens, heights = self.run_periods(datas, initial_state, steps, nthread, record_qpos)
-        return trial_major(sens), heights
+        sens, surface = self.run_periods(datas, initial_state, steps, nthread, record_qpos)
+        return trial_major(sens), surface
 
     @timers_off()
     def run_periods(
@@ -255,12 +268,14 @@ class ClosedLoop:
         control_every = mot.control_steps // k  # force-loop updates happen every n periods
         radius = cfg.finger.pad_radius_m
         b, base = self.b, self.models[0]
+        n_read = self.wrist_noise.shape[1]
         nstate, nsens = initial_state.shape[1], base.nsensordata
         lay, cols = self.layout, self.cols
         # Rollout writes each period's sensors straight into its contiguous block of a
         # period-major buffer; the specimen's heights (small) go trial-major.
         sens_out = np.empty((nseg, b, k, nsens))
         height_out = np.empty((b, nseg, k))
+        push_out = np.empty((b, nseg, k))
         h = np.empty((b, k))
         control = np.zeros((b, k, lay["size"].stop))
         state_buf = np.empty((b, k, nstate))
@@ -314,14 +329,25 @@ class ClosedLoop:
         self.unstable_ = np.zeros(0, dtype=np.intp)
         self.warned_: tuple[str, ...] = ()
         self.rollout_s_ = 0.0
+        # The z set point: where the force loop last moved it to (z_to), the value it
+        # moved from (z_from) and this period's interpolated value (z_set).
+        z_to = self.z_ref.copy()
+        z_from = self.z_ref.copy()
+        z_set = self.z_ref.copy()
         runner = _rollout.Rollout(nthread=nthread if nthread > 1 else 0)
         spec = int(scene_mod.CONTROL_SPEC)
         for g in range(nseg):
             if g % control_every == 0 and g:
-                # Force loop: integral action on the wrist's load over the last period.
-                wrist = wrist_sum / (control_every * k)
+                # Force loop: integral action on the wrist sensor's reading of the load
+                # over the last period (the true load plus the latest reading's noise).
+                reading = min(int(g * k * dt * mot.wrist_sensor_rate_hz), n_read - 1)
+                wrist = wrist_sum / (control_every * k) + self.wrist_noise[:, reading]
                 wrist_sum[:] = 0.0
-                self.z_ref += mot.control_period_s * self.gain * (wrist - self.force)
+                z_from = z_set.copy()
+                z_to += mot.control_period_s * self.gain * (wrist - self.force)
+            # The arm's servo interpolates the force loop's set point over the control
+            # period (a step every 8 ms would jolt the stiff z drive at 125 Hz).
+            z_set[:] = z_from + (z_to - z_from) * ((g % control_every + 1) / control_every)
             # Friction from the simulated slip and load.
             kernels.store_at(friction_at, self.friction(slip_speed, normal, mu))
             # Texture under the contact, extrapolated over the period, as felt by the
@@ -330,7 +356,17 @@ class ClosedLoop:
             self.texture.felt_into(s_now, v_now, ahead, normal, h, slope)
             height_out[:, g] = h
             kernels.controls(
-                h, slope, normal, xy_seg[:, g], self.z_ref, direction, lever, mx, mz, control
+                h,
+                slope,
+                normal,
+                xy_seg[:, g],
+                z_set,
+                direction,
+                lever,
+                mx,
+                mz,
+                control,
+                push_out[:, g],
             )
             sens = sens_out[g]
             t0 = time.perf_counter()
@@ -367,7 +403,8 @@ class ClosedLoop:
                 self.pieces.update(sens[:, k - 1, c_pad])
         if qpos_out is not None:
             self.qpos_ = qpos_out.reshape(b, steps, self.nq)
-        return sens_out, height_out.reshape(b, steps)
+        surface = np.stack([height_out.reshape(b, steps), push_out.reshape(b, steps)], axis=-1)
+        return sens_out, surface
 
 
 def _warning_names(datas: Sequence[mujoco.MjData]) -> tuple[str, ...]:

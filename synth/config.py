@@ -27,18 +27,43 @@ class Finger:
     #: drop into the moon's 12.5 mm notch (sag over 6.25 mm > 2 mm needs r < 10.8 mm).
     pad_radius_m: float = 0.007
     #: Moving mass below the PDMS support: silicone skin pad, films and the support's
-    #: moving half (a silicone hemisphere of 7 mm radius alone is ~0.8 g).
+    #: moving half (a silicone hemisphere of 7 mm radius alone is ~0.8 g). Not measured
+    #: for the paper's finger; plausible 1-4 g (``scripts/calibrate.py mount`` prints the
+    #: mount's modes for it).
     pad_mass_kg: float = 0.003
     #: Phalanx + carriage mass the robot's drives move.
     phalanx_mass_kg: float = 0.05
-    #: PDMS support stiffness, normal (1 N compresses ~0.4 mm of soft PDMS).
-    pdms_normal_stiffness_n_m: float = 2500.0
-    #: PDMS shear stiffness (roughly half the normal one for an elastomer layer).
-    pdms_shear_stiffness_n_m: float = 1500.0
-    #: PDMS rocking stiffness about the lateral axis (1 N of friction 14 mm below the
-    #: mount tilts the pad ~1.5 degrees).
-    pdms_pitch_stiffness_nm_rad: float = 0.5
-    #: Damping ratio of the PDMS modes (silicone elastomers: 0.1-0.2).
+    #: Young's modulus of the PDMS support: Sylgard 184 at the usual 10:1 mix, 2.0 MPa
+    #: (``E = 20 MPa / mix ratio`` over 5:1-33:1, 0.57-3.7 MPa, measured in compression:
+    #: Wang, Volinsky & Gallant 2014, J. Appl. Polym. Sci. 131, 41050). Nearly
+    #: incompressible, so its shear modulus is ``E / 3``.
+    pdms_modulus_pa: float = 2.0e6
+    #: The support's geometry, a PDMS disc bonded between the phalanx and the pad. The
+    #: finger's description does not give it: a free choice that fits under the 14 mm
+    #: pad (plausible 6-12 mm across, 1-4 mm thick; ``scripts/calibrate.py sweep``
+    #: measures the thickness). Its stiffnesses follow (:attr:`pdms_shear_stiffness_n_m`,
+    #: :attr:`pdms_pitch_stiffness_nm_rad`, :attr:`pdms_normal_stiffness_derived_n_m`).
+    #: 10 x 3 mm puts the shear mode at 380 Hz and the rocking mode at 310 Hz, above the
+    #: texture's tones (60-170 Hz from 6 to 14 mm/s) but inside the 20-400 Hz band: the
+    #: thinner 2 mm disc, whose modes lie above 400 Hz (470 and 500 Hz), rocks with a
+    #: mode the 0.5 ms step cannot integrate under stick-slip (MuJoCo diverges), so 3 mm
+    #: is the thinnest disc in half-millimetre steps the simulation carries. A limit of
+    #: the physics step, stated as such (``docs/simulator.md``, "The finger's mount").
+    pdms_diameter_m: float = 0.010
+    pdms_thickness_m: float = 0.003
+    #: The support's compression stiffness as simulated. A bonded disc this squat is some
+    #: 14 times stiffer in compression than in shear (:attr:`pdms_normal_stiffness_derived_n_m`,
+    #: about 330 kN/m): its mode on the pad's mass would lie near 1.7 kHz, which the
+    #: 0.5 ms physics step cannot integrate (MuJoCo steps joint springs explicitly, stable
+    #: up to about 600 Hz at that step). The simulated support is therefore the stiffest
+    #: whose mode, with the skin contact beside it, lies above the 400 Hz anti-alias
+    #: corner with a margin (35 kN/m: 560 Hz at 3 g). Below the band the two read alike:
+    #: either deflects by a few hundredths of a millimetre under 1 N, against the skin's
+    #: 0.8 mm indentation. A numerical stand-in, not a measured value.
+    pdms_normal_stiffness_n_m: float = 21000.0
+    #: Damping ratio of the PDMS modes: half the loss tangent of a silicone elastomer
+    #: (0.1-0.4 at 10-1000 Hz at room temperature); not measured for this support, a free
+    #: choice in that range.
     pdms_damping_ratio: float = 0.15
     #: Young's modulus of the silicone skin: platinum-cure silicone of the Dragon Skin 20
     #: class, 0.29 MPa small-strain tensile modulus (Marechal et al. 2021, Soft Robotics
@@ -80,8 +105,9 @@ class Finger:
             "pad_mass_kg",
             "phalanx_mass_kg",
             "pdms_normal_stiffness_n_m",
-            "pdms_shear_stiffness_n_m",
-            "pdms_pitch_stiffness_nm_rad",
+            "pdms_modulus_pa",
+            "pdms_diameter_m",
+            "pdms_thickness_m",
             "pdms_damping_ratio",
             "skin_modulus_pa",
             "ridge_spacing_m",
@@ -111,6 +137,56 @@ class Finger:
             raise ValueError(
                 f"Finger.gauge_heights_m must be two heights > 0; got {self.gauge_heights_m!r}"
             )
+
+    @property
+    def pdms_area_m2(self) -> float:
+        return math.pi * self.pdms_diameter_m**2 / 4
+
+    @property
+    def pdms_shape_factor(self) -> float:
+        """Loaded over free area of the bonded disc, ``d / (4 t)``: how much its bonded
+        faces stiffen it in compression and bending (Gent's rule ``E (1 + 2 S^2)``)."""
+        return self.pdms_diameter_m / (4 * self.pdms_thickness_m)
+
+    @property
+    def pdms_shear_stiffness_n_m(self) -> float:
+        """Shear stiffness of the bonded PDMS disc: ``G A / t`` with ``G = E / 3``."""
+        return self.pdms_modulus_pa / 3 * self.pdms_area_m2 / self.pdms_thickness_m
+
+    @property
+    def pdms_compression_modulus_pa(self) -> float:
+        """Effective modulus of the bonded disc in compression, ``E (1 + 2 S^2)`` (Gent)."""
+        return self.pdms_modulus_pa * (1 + 2 * self.pdms_shape_factor**2)
+
+    @property
+    def pdms_normal_stiffness_derived_n_m(self) -> float:
+        """Compression stiffness the disc's geometry gives, ``E_c A / t`` (the simulated
+        one is :attr:`pdms_normal_stiffness_n_m`)."""
+        return self.pdms_compression_modulus_pa * self.pdms_area_m2 / self.pdms_thickness_m
+
+    @property
+    def pdms_pitch_stiffness_nm_rad(self) -> float:
+        """Rocking stiffness of the bonded disc about a diameter: ``E_c I / t`` with the
+        disc's second moment of area ``I = pi d^4 / 64``."""
+        inertia = math.pi * self.pdms_diameter_m**4 / 64
+        return self.pdms_compression_modulus_pa * inertia / self.pdms_thickness_m
+
+    @property
+    def pad_pitch_inertia_kg_m2(self) -> float:
+        """The pad's moment of inertia about its mount, one radius above its centre (a
+        solid sphere of the pad's mass)."""
+        return 1.4 * self.pad_mass_kg * self.pad_radius_m**2
+
+    def mount_modes_hz(self, skin_n_m: float = 0.0) -> dict[str, float]:
+        """Undamped natural frequencies of the pad on its support: shear, compression
+        (with the skin contact's stiffness ``skin_n_m`` beside the support) and rocking."""
+        m = self.pad_mass_kg
+        return {
+            "shear": math.sqrt(self.pdms_shear_stiffness_n_m / m) / (2 * math.pi),
+            "normal": math.sqrt((self.pdms_normal_stiffness_n_m + skin_n_m) / m) / (2 * math.pi),
+            "pitch": math.sqrt(self.pdms_pitch_stiffness_nm_rad / self.pad_pitch_inertia_kg_m2)
+            / (2 * math.pi),
+        }
 
 
 @dataclass(frozen=True)
@@ -160,10 +236,26 @@ class Motion:
     #: MuJoCo impratio: frictional/normal constraint impedance; 10 makes the elliptic
     #: cone's tangential/normal match the coefficient (0.83 at 1 vs 0.90 for 0.9).
     impratio: float = 100.0
-    #: Lateral (y) position of the path relative to the specimen's centre line. 2 mm off
-    #: the axis: the skin crosses the edges obliquely, as a finger slid across an object
-    #: rarely runs along its symmetry axis, so the edges' lateral push has one sign in
-    #: every trial instead of flipping with the placement scatter.
+    #: The force the loop regulates is a wrist force sensor's reading: the true force the
+    #: z drive transmits plus white noise of this RMS on every reading. The paper's UR5
+    #: (CB3) has no wrist sensor, and its joint-current force estimate is specified to
+    #: +-10 N (Universal Robots' answer on its forum, "Internal Force Sensor
+    #: properties"), useless at 1 N; a rig that holds 1 N reads a wrist sensor of the
+    #: Robotiq FT 300 class, the usual one on UR arms: 0.1 N noise-free resolution at
+    #: 100 Hz (its data sheet). A noise-free resolution is the noise's peak-to-peak span,
+    #: about 6.6 standard deviations, so 0.015 N RMS (plausible 0.015-0.1 N, the latter
+    #: reading the resolution as the RMS; ``scripts/calibrate.py sweep`` measures both).
+    #: Each control period reads the latest reading.
+    wrist_force_noise_n: float = 0.015
+    #: Wrist force sensor's output rate: 100 Hz (Robotiq FT 300).
+    wrist_sensor_rate_hz: float = 100.0
+    #: Lateral (y) position of the path relative to the specimen's centre line. The paper
+    #: does not say where its strokes crossed the specimens; a free choice, plausible 0-3
+    #: mm (a stroke aimed at the centre, up to a quarter of the smallest outline off it).
+    #: 2 mm off the axis the skin crosses the edges obliquely, so the edges' lateral push
+    #: has one sign in every trial instead of flipping with the placement scatter; on the
+    #: axis the side gauge reads the symmetric shapes' edges with a sign that the
+    #: placement scatter flips (``scripts/calibrate.py sweep`` measures 0-3 mm).
     path_y_m: float = 0.002
     #: False: slide on the bare base plate (sensor calibration runs, physics checks).
     raised_shape: bool = True
@@ -182,7 +274,9 @@ class Motion:
             "servo_damping_n_s_m",
             "force_loop_bandwidth_hz",
             "impratio",
+            "wrist_sensor_rate_hz",
         )
+        params.non_negative(self, "wrist_force_noise_n")
         params.below(self, "timestep_s", 0.001, "the physics must run faster than the 1 kHz DAQ")
         ratio = 1.0 / (self.timestep_s * 1000.0)
         if abs(ratio - round(ratio)) > 1e-9:
@@ -243,16 +337,16 @@ class Variability:
     #: pose within +-0.1 mm (data sheet; ISO 9283 repeatability, the mean distance plus
     #: 3 standard deviations), so the press depth scatters by 0.1 mm / 3 = 0.033 mm, and
     #: the load by that times the stiffness of what the press compresses in series: the
-    #: arm's servo (20 kN/m), the PDMS support (2.5 kN/m) and the skin's Hertz contact
-    #: (1.8 kN/m at 1 N, 0.82 mm deep), 1.0 kN/m in all, so 3.3 % at 1 N (2.8 % for a
-    #: Gaussian scatter in three axes, 3.8 % for one along the press alone). A force loop
-    #: is not known to do better at this load: a UR5e in force mode, with its wrist
-    #: force/torque sensor, misses set points of 1-10 N by 0.38 N on average (Trochimczuk
-    #: et al. 2026, Sensors 26, 1709), and the paper's UR5 has no wrist sensor. So 3.3 %
-    #: lies at the lower end of what the cited figures allow (``docs/simulator.md``, "The
-    #: force scatter"); ``scripts/calibrate.py force`` derives it from the configured
-    #: finger.
-    force_rel: float = 0.033
+    #: arm's servo (20 kN/m), the PDMS support as simulated (21 kN/m) and the skin's
+    #: Hertz contact (1.8 kN/m at 1 N, 0.82 mm deep), 1.56 kN/m in all, so 5.2 % at 1 N
+    #: (4.3 % for a Gaussian scatter in three axes, 6.0 % for one along the press
+    #: alone). A force loop is not known to do better at this load: a UR5e in force
+    #: mode, with its wrist force/torque sensor, misses set points of 1-10 N by 0.38 N on
+    #: average (Trochimczuk et al. 2026, Sensors 26, 1709). The wrist sensor's own noise
+    #: within a stroke is :attr:`Motion.wrist_force_noise_n`. ``scripts/calibrate.py
+    #: force`` derives this value from the configured finger (``docs/simulator.md``, "The
+    #: force scatter").
+    force_rel: float = 0.052
     #: Relative error of the path speed: not measured for this rig either; an assumption.
     speed_rel: float = 0.01
     #: Stroke-to-stroke scatter of the friction coefficient on one specimen (coefficient
@@ -356,10 +450,12 @@ class PVDF:
     #: ``E t`` balance: 28 um PVDF gives 14 um (the film's bonded face) on the 23 um
     #: polyester stock (4-5 GPa), 21 um on the 36 um stock and about 67 um on the
     #: manual's laminated elements (125 um). The finger's description does not give the
-    #: films' carrier; the default takes the thinnest standard polyester stock on which
-    #: the films carry more of the material than of the shape information
-    #: (``scripts/calibrate.py carrier``, docs/simulator.md): 36 um.
-    neutral_axis_offset_m: float = 21.1e-6
+    #: films' carrier: a free choice between the thinnest standard polyester stock,
+    #: 23 um, and the laminated elements' 125 um (Measurement Specialties, Piezo Film
+    #: Sensors Technical Manual). The default is the stock nearest the middle of that
+    #: range, 75 um: 41.2 um (``scripts/calibrate.py carrier`` derives both of the
+    #: carrier's figures; the sweep measures the range).
+    neutral_axis_offset_m: float = 41.2e-6
     #: In-plane strain of a film per newton of tangential traction on the skin. A
     #: tangential point load ``Q`` on an elastic half-space (Cerruti; Johnson, *Contact
     #: Mechanics*, 1985, ch. 3) moves the surface along the load by
@@ -369,11 +465,11 @@ class PVDF:
     #: in-plane than the skin it is bonded in, which carries that strain over a depth of
     #: the order of ``x``; the film takes the skin's in-plane force instead,
     #: ``(1 + nu) Q / (pi x)`` per unit width, and strains by that over its in-plane
-    #: stiffness ``E t`` plus its carrier's (28 um PVDF at 3 GPa, 36 um polyester at
-    #: 4.5 GPa: 246 kN/m): ``(1 + nu) / (pi x sum(E t))`` = 4.8e-4 per newton. The
+    #: stiffness ``E t`` plus its carrier's (28 um PVDF at 3 GPa, 75 um polyester at
+    #: 4.5 GPa: 422 kN/m): ``(1 + nu) / (pi x sum(E t))`` = 2.8e-4 per newton. The
     #: depth the skin carries the load over is known only to within a factor of about
     #: 1.5 (the distance to the film, 4 mm, to its length, 5 mm, and below).
-    shear_strain_per_n: float = 4.82e-4
+    shear_strain_per_n: float = 2.81e-4
     #: Electrode length (along the sliding direction) and width: a strip that fits on the
     #: pad's front / rear flank.
     length_m: float = 5.0e-3

@@ -299,16 +299,17 @@ def _clamped(pos, last):
 
 
 @numba.njit(cache=True, nogil=True)
-def controls(h, slope, normal, xy, z_ref, direction, lever, mx, mz, control):
+def controls(h, slope, normal, xy, z_ref, direction, lever, mx, mz, control, push_out):
     """A period's controls ``(b, k, ncontrol)``: the x/y servo set points ``xy`` ``(b, k,
     2)``, the z set point ``z_ref``, the slope's push ``-slope * normal`` along the path
     ``direction`` at the contact (force in columns ``mx, mx + 1``, its torque about the
     pad's centre ``(F_y, F_x) * lever`` in ``mx + 3, mx + 4``) and the specimen's height
-    ``h`` in column ``mz``."""
+    ``h`` in column ``mz``; the push along the path into ``push_out`` ``(b, k)``."""
     b, k = h.shape
     for i in range(b):
         for t in range(k):
             push = slope[i, t] * -normal[i]
+            push_out[i, t] = push
             fx = push * direction[i, 0]
             fy = push * direction[i, 1]
             control[i, t, 0] = xy[i, t, 0]

@@ -7,8 +7,8 @@ belong to the finger (:class:`synth.config.Finger`), not to the material: silico
 surface: how the skin rubs on it (:class:`FrictionLaw`) and its topography
 (:class:`Texture`).
 
-Friction values are for a silicone or skin-like pad on the three materials; the sources
-are named per field. Texture is the specimen surface height along the sliding direction:
+Friction values are for a silicone pad; the sources are named at
+:data:`SILICONE_FRICTION`. Texture is the specimen surface height along the sliding direction:
 band-limited random roughness (Gaussian, exponential autocorrelation) plus periodic
 components running across the sliding direction (machining feed marks, printing raster,
 wood grain).
@@ -114,50 +114,66 @@ class Material:
             raise ValueError(f"Material.texture must be a Texture; got {self.texture!r}")
 
 
+#: The silicone skin's friction, the same law on every specimen. Silicone on a smooth
+#: solid is adhesion-dominated at these speeds, and the one measurement of silicone
+#: skins on a counterface of this kind found for this finger is on a printed polymer:
+#: two platinum-cure silicones slid over PLA at 10 mm/s under 62.5 kPa, the pressure
+#: nearest the skin's mean Hertz pressure at 1 N, give 0.62 (Sil 950) and 1.67 (Dragon
+#: Skin 10) (Tortos-Vinocour et al. 2024, IEEE Robot. Autom. Lett.,
+#: doi:10.1109/LRA.2024.3376975; ``scripts/calibrate.py friction``): the middle of that
+#: range, 1.15, is the kinetic coefficient. No measurement of a silicone skin on wood or
+#: aluminium was found: the same law stands for them, so the three materials differ by
+#: their surfaces' topography alone, not by a friction figure without a source. Static
+#: over kinetic: 1.1-1.3 for skin and silicone (Temel, Johnson & Lloyd 2022, Tribol.
+#: Lett. 70), its middle 1.2. The stroke-to-stroke scatter comes from the same silicone
+#: runs (``Variability.friction_rel``).
+SILICONE_FRICTION = FrictionLaw(kinetic=1.15, static=1.38)
+
 MATERIALS: dict[str, Material] = {
-    # Printed (SLA/DLP) acrylate resin. Friction: skin and silicone skin equivalents on
-    # smooth glassy polymers range 0.5 to above 1 (Derler & Gerhardt 2012, Tribol. Lett.
-    # 45; dry silicone skin equivalent on polymer coatings > 1); the finger on PMMA behaves
-    # like on glass (Gueorguiev et al. 2016, Sci. Rep. 6). Texture: as-printed SLA/DLP Ra
-    # 1-3 um (Rq ~1.25 Ra) with the exposure raster of the laser spot / projector pixel
-    # (~85 um on a laser SLA printer) left on the top face.
+    # Printed (SLA) acrylate resin. Texture: SLA prints measured with a stylus
+    # profilometer show Ra 0.87-4.44 um (Arnold, Monsees, Hey & Schweyen 2019, Materials
+    # 12, 1970): the middle, Ra 2.66 um, is Rq 3.3 um for a Gaussian profile (Rq = 1.25
+    # Ra). A laser SLA printer leaves the raster of its laser spot on a top face, 85 um
+    # on a Formlabs Form 3 (its data sheet); the raster's depth is not measured, a free
+    # choice of 1 um (plausible 0.5-2 um, under the face's Ra). The correlation length
+    # is not measured either: 40 um, the order of the spot (plausible 20-85 um).
     "resin": Material(
         name="resin",
-        friction=FrictionLaw(kinetic=0.80, static=0.96),
+        friction=SILICONE_FRICTION,
         texture=Texture(
-            roughness_rms_m=1.9e-6,
+            roughness_rms_m=3.3e-6,
             correlation_length_m=40e-6,
             periodic=(Periodic(wavelength_m=85e-6, amplitude_m=1.0e-6),),
         ),
     ),
-    # Planed and sanded beech. Friction: the finger on raw (unfinished) wood gives the
-    # lowest coefficients of the woods and finishes measured, from 0.22 (Gott & Byrne
-    # 2013, J. Emerg. Investig. 3); rough, porous surfaces cut the real contact area of a
-    # soft pad. Texture: sanded hardwood Ra ~3-8 um rising with grit size (Gurau, Irle &
-    # Buchner 2019, BioResources 14); vessels and fibres give the short-scale roughness,
-    # the growth rings a slow relief of a few um every 2-5 mm (ring widths 2-8 mm:
-    # Adamopoulos et al. 2009, Eur. J. Wood Prod. 67).
+    # Planed and sanded beech. Texture: sanded beech Ra 3-8 um, rising with the grit's
+    # size from P150 to P60 (Gurau, Irle & Buchner 2019, BioResources 14, 4512): the
+    # middle, Ra 5.5 um, is Rq 6.9 um. Vessels and fibres give the short-scale roughness
+    # (correlation length 120 um, the order of beech's vessels, 50-100 um across, and
+    # fibres: not measured as such, plausible 50-200 um); the growth rings a slow relief
+    # of a few um every 2-5 mm (ring widths 2-8 mm: Adamopoulos et al. 2009, Eur. J.
+    # Wood Prod. 67; its depth, 4 um, is a free choice within the waviness of a few um).
     "wood": Material(
         name="wood",
-        friction=FrictionLaw(kinetic=0.50, static=0.60),
+        friction=SILICONE_FRICTION,
         texture=Texture(
-            roughness_rms_m=6.0e-6,
+            roughness_rms_m=6.9e-6,
             correlation_length_m=120e-6,
             periodic=(Periodic(wavelength_m=3.0e-3, amplitude_m=4.0e-6),),
         ),
     ),
-    # Face-milled aluminium 6xxx. Friction: a finger pad on aluminium at 1 N, 0.6 (Seo et
-    # al. 2009, Ergonomics 52); palmar skin 0.38 +- 0.13 (Buchholz, Frederick & Armstrong
-    # 1988, Ergonomics 31). Texture: Ra 0.34-0.48 um (Chuchala et al. 2021, Materials 14).
-    # A 0.8 mm tool nose radius r leaves a cusp profile x^2 / (2 r) at every feed per
-    # tooth f = 0.1 mm: peak-to-valley f^2 / (8 r) = 1.6 um, Ra f^2 / (18 sqrt(3) r) =
-    # 0.40 um. The marks are its fundamental, amplitude f^2 / (2 pi^2 r) = 0.63 um (a
-    # cosine with the cusps' Ra); the harmonics (50 um and finer) are left out, as a
-    # ridge's contact width averages them away. The random roughness is what the marks
-    # leave of the measured Ra: 0.25 um RMS brings the profile to Ra 0.44 um.
+    # Face-milled aluminium 6xxx. Texture: Ra 0.34-0.48 um (Chuchala et al. 2021,
+    # Materials 14). A 0.8 mm tool nose radius r leaves a cusp profile x^2 / (2 r) at
+    # every feed per tooth f = 0.1 mm: peak-to-valley f^2 / (8 r) = 1.6 um, Ra f^2 / (18
+    # sqrt(3) r) = 0.40 um. The marks are its fundamental, amplitude f^2 / (2 pi^2 r) =
+    # 0.63 um (a cosine with the cusps' Ra); the harmonics (50 um and finer) are left
+    # out, as a ridge's contact width averages them away. The random roughness is what
+    # the marks leave of the measured Ra: 0.25 um RMS brings the profile to Ra 0.44 um,
+    # inside the measured range (correlation length 15 um, not measured: plausible
+    # 5-30 um, the order of the cutting edge's own marks).
     "aluminum": Material(
         name="aluminum",
-        friction=FrictionLaw(kinetic=0.60, static=0.72),
+        friction=SILICONE_FRICTION,
         texture=Texture(
             roughness_rms_m=0.25e-6,
             correlation_length_m=15e-6,

@@ -10,11 +10,14 @@ A trial's timeline (physics step ``Motion.timestep_s``):
    it; the start point is placed so that the skin first touches the raised outline
    ``approach_s`` after the slide starts (longer where a fast slide would otherwise
    start its window before the robot is at speed);
-3. window: 2 s of the DAQ's 1 kHz record from the contact phase (the skin on the raised
-   outline, from its first touch of the entry edge to its last touch of the exit edge),
-   centred on that phase (plus the extraction's jitter). Every speed is cut the same way:
-   at 10 mm/s the window holds both edge crossings of a 16 mm outline, slower runs see
-   less of the shape around its middle, faster ones the whole crossing.
+3. window: 2 s of the DAQ's 1 kHz record from the contact phase, cut as a lab cuts it
+   from the recorded signals (:func:`contact_phase_samples`): the front gauge's departure
+   from its level on the plate marks the entry and the exit edge, and the window is
+   centred between them (plus the extraction's jitter). Every speed is cut the same
+   way: at 10 mm/s the window holds both edge crossings of a 16 mm outline, slower runs
+   see less of the shape around its middle, faster ones the whole crossing. The path is
+   planned so that the contact phase's middle falls :data:`WINDOW_MARGIN_S` before the
+   simulated record's end at the latest, whatever the pad's lag.
 
 All per-trial randomness derives from ``SeedSequence([trial seed, class index])``, spawned
 into independent streams (path, material, sensors, texture, noise), so a trial is
@@ -59,12 +62,26 @@ def batches(n: int, size: int = CHUNK) -> list[slice]:
     return [slice(a, b) for a, b in itertools.pairwise(bounds)]
 
 
+#: Simulated time past the planned window's end: room for the window that the recorded
+#: signals place (:func:`contact_phase_samples`) to fall later than the planned one, as
+#: the pad's lag behind its path and the threshold's position on the edges' rise move it.
+WINDOW_MARGIN_S = 0.1
+#: A lab's cut of the contact phase from the record (:func:`contact_phase_samples`): the
+#: films' level on the plate is read over this stretch after the robot has reached speed
+#: and its start transient has died out, before the skin can touch the outline; an edge
+#: is where the films depart from that level by this fraction of their largest departure
+#: in the record.
+BASELINE_S = 0.03
+EDGE_THRESHOLD = 0.05
 #: Largest tolerated gap between the finger and its commanded path: beyond the elastic lag
 #: of the PDMS and servo at an edge (a few mm), the finger is stuck.
 MAX_TRACKING_ERROR_M = 8e-3
 #: Longest tolerated contact gap. The skin may hop for a millisecond or two when stored
-#: shear snaps free at an edge's crest; longer means the finger left the specimen.
-MAX_CONTACT_GAP_S = 0.01
+#: shear snaps free at an edge's crest, and for a few tens of milliseconds where a light,
+#: fast stroke runs off a wall: the stiff PDMS support leaves the skin's indentation as
+#: the only travel while the force loop lowers the arm (up to 34 ms measured at 0.6 N and
+#: 14 mm/s, the perturbation grid's corner); longer means the finger left the specimen.
+MAX_CONTACT_GAP_S = 0.05
 #: Resolution of the search for the first touch along the path.
 TOUCH_STEP_M = 20e-6
 
@@ -87,8 +104,10 @@ class Plan:
     initial_qpos: np.ndarray
     loop: LoopTrial
     touch_step: int  # physics step at which the commanded path first touches the outline
-    window_start: int  # physics step of the window's first DAQ sample
-    steps: int  # physics steps the window needs (a whole number of controller periods)
+    window_start: int  # physics step of the planned window's first DAQ sample
+    record_start: int  # physics step of the DAQ record's first sample (the slide's start)
+    jitter_s: float  # the extraction's offset of the window's middle from the phase's
+    steps: int  # physics steps the record needs (a whole number of controller periods)
     noise_seed: np.random.SeedSequence
 
     @property
@@ -111,7 +130,10 @@ def n_steps(config: SynthConfig, speed_mm_s: float, force_n: float) -> int:
     reach = touch_distance_m(config, force_n * (1 + 3 * var.force_rel))
     phase_m = shapes.dims.MAX_EXTENT_RATIO * SPECIMEN.outline_size_m + 2 * reach
     middle = max(m.approach_s + phase_m / (2 * speed), _earliest_middle_s(config))
-    total = m.settle_s + m.ramp_s + middle + WINDOW_S / 2 + var.window_jitter_s / 2
+    # The record runs to the later of the window's end and the exit edge's last touch
+    # (the window is cut between the two edges the signals show), plus the margin.
+    end = max(middle + WINDOW_S / 2 + var.window_jitter_s / 2, middle + phase_m / (2 * speed))
+    total = m.settle_s + m.ramp_s + end + WINDOW_MARGIN_S
     steps = round(total / m.timestep_s) + 2 * steps_per_sample(config)
     return _whole_periods(steps, m.control_steps)
 
@@ -193,7 +215,7 @@ def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
     var, mot, finger = config.variability, config.motion, config.finger
     material = config.materials[spec.material]
     root = np.random.SeedSequence([spec.seed, class_index(spec.shape, spec.material)])
-    path_ss, material_ss, _sensor_ss, texture_ss, noise_ss = root.spawn(5)
+    path_ss, material_ss, sensor_ss, texture_ss, noise_ss = root.spawn(5)
     path = np.random.default_rng(path_ss)
     force = spec.force_n * _scatter(path, var.force_rel)
     speed = spec.speed_mm_s * 1e-3 * _scatter(path, var.speed_rel)
@@ -210,6 +232,10 @@ def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
     k = steps_per_sample(config)
     window_start = k * round((t_middle - WINDOW_S / 2 + jitter) * SAMPLE_RATE_HZ)
 
+    # The record runs past the planned window's end and the exit edge's last touch.
+    record_end = max(
+        window_start + (N_SAMPLES + 1) * k, round((t_middle + half_phase_s) / mot.timestep_s)
+    )
     t = np.arange(n_steps(config, spec.speed_mm_s, spec.force_n)) * mot.timestep_s
     d = d_start + travel(t - mot.settle_s, speed, mot.ramp_s)
     c, s = math.cos(yaw), math.sin(yaw)
@@ -243,6 +269,10 @@ def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
     qpos[qi["robot_z"]] = h0 - sink - preload  # skin indented, PDMS pre-compressed
     qpos[qi["pdms_z"]] = preload
     z_ref0 = qpos[qi["robot_z"]] - force / mot.servo_stiffness_n_m
+    # The wrist sensor's noise on each of its readings over the whole path.
+    readings = int(t[-1] * mot.wrist_sensor_rate_hz) + 1
+    wrist_noise = np.random.default_rng(sensor_ss).standard_normal(readings)
+    wrist_noise *= mot.wrist_force_noise_n
     mu0 = contact.friction_coefficient(material.friction, 0.0, force, friction_scale)
     loop = LoopTrial(
         x_ref=x_ref,
@@ -253,6 +283,7 @@ def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
         surface=surface,
         direction=(c, s),
         z_ref0=z_ref0,
+        wrist_noise_n=wrist_noise,
     )
     return Plan(
         spec=spec,
@@ -261,7 +292,11 @@ def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
         loop=loop,
         touch_step=round(t_touch / mot.timestep_s),
         window_start=window_start,
-        steps=_whole_periods(window_start + (N_SAMPLES + 1) * k, mot.control_steps),
+        record_start=k * round(mot.settle_s * SAMPLE_RATE_HZ),
+        jitter_s=float(jitter),
+        steps=_whole_periods(
+            record_end + round(WINDOW_MARGIN_S / mot.timestep_s), mot.control_steps
+        ),
         noise_seed=noise_ss,
     )
 
@@ -332,9 +367,10 @@ def _roll(
     plans: Sequence[Plan], datas: list[mujoco.MjData], config: SynthConfig
 ) -> tuple[np.ndarray, np.ndarray]:
     """Run a chunk of same-shape plans' closed loops; returns sensordata
-    ``(b, steps, nsensordata)`` and the specimen's texture heights ``(b, steps)``."""
-    sens, heights, _ = _roll_loop(plans, datas, config)
-    return sens, heights
+    ``(b, steps, nsensordata)`` and the surface's inputs ``(b, steps, 2)`` (the specimen's
+    texture height and the texture's push on the skin)."""
+    sens, surface, _ = _roll_loop(plans, datas, config)
+    return sens, surface
 
 
 def _roll_loop(
@@ -353,9 +389,9 @@ def _roll_loop(
     )
     steps = max(p.steps for p in plans)
     run = loop.run_periods if periods else loop.run
-    sens, heights = run(datas, _initial_states(plans), steps, len(datas))
+    sens, surface = run(datas, _initial_states(plans), steps, len(datas))
     _check_stable(loop, plans, datas, config)
-    return sens, heights, loop
+    return sens, surface, loop
 
 
 def _check_stable(
@@ -379,20 +415,42 @@ def _check_stable(
 _MECHANICS_COLUMNS = ("contact", "pad_pos", "contact_depth", "mount_force", "mount_torque")
 
 
+def contact_phase_samples(record: np.ndarray, baseline: slice) -> tuple[int, int] | None:
+    """First and last sample of the contact phase in a trial's DAQ record ``(4, n)``, as a
+    lab cuts it: the films ring hard when the skin meets or leaves an edge and stay
+    within millivolts while it slides on a face. The films' larger magnitude, after its
+    level over ``baseline`` (samples on the plate) is taken off, marks an edge where it
+    reaches :data:`EDGE_THRESHOLD` of its largest value in the record after ``baseline``;
+    the phase runs from the first such sample to the last. ``None`` if the films never
+    depart from the plate's level."""
+    films = np.abs(np.asarray(record[:2], dtype=float))
+    level = films[:, baseline].max(axis=1, keepdims=True)
+    departure = (films - level).max(axis=0)[baseline.stop :]
+    peak = departure.max() if departure.size else 0.0
+    if not peak > 0:
+        return None
+    above = np.flatnonzero(departure >= EDGE_THRESHOLD * peak) + baseline.stop
+    return int(above[0]), int(above[-1])
+
+
 def _process(
-    plans: Sequence[Plan], sens: np.ndarray, heights: np.ndarray, config: SynthConfig
+    plans: Sequence[Plan], sens: np.ndarray, surface: np.ndarray, config: SynthConfig
 ) -> list[Trial]:
     """The trials of a batch's physics: ``sens`` the sensors, trial-major ``(b, steps,
     nsensordata)`` or period-major ``(periods, b, k, nsensordata)`` as
-    :meth:`synth.closed_loop.ClosedLoop.run_periods` returns them; ``heights`` ``(b,
-    steps)``."""
+    :meth:`synth.closed_loop.ClosedLoop.run_periods` returns them; ``surface`` ``(b,
+    steps, 2)`` the specimen's height and the texture's push on the skin.
+
+    Each trial's DAQ records from the slide's start to the end of its own simulated
+    steps; the window is cut from that record where its signals place the contact phase
+    (:func:`contact_phase_samples`)."""
     if sens.ndim == 3:  # trial-major: one period of all the steps
         sens = sens[None]
     cols = scene_mod.sensor_columns()
     k = steps_per_sample(config)
     fs = SAMPLE_RATE_HZ * k
     _, b, per, _ = sens.shape
-    n = heights.shape[1]
+    n = surface.shape[1]
     force = np.empty((b, n, 3))
     mech = sensors.Mechanics(
         mount_force=np.empty((b, n, 3)),
@@ -414,24 +472,20 @@ def _process(
         mech.indentation_m,
         mech.traction_n,
     )
+    # The skin's traction is the contact's friction plus the texture's push, which the
+    # closed loop applies to the skin at the contact: the films read both, as the mount
+    # does through the pad.
+    mech.traction_n[...] += surface[:, :, 1]
     strain = sensors.gauge_strains(mech, config.finger, config.strain_gauge)
     sg = sensors.bridge_volts(strain, config.strain_gauge, fs)
     pvdf = sensors.pvdf_volts(
         sensors.film_strains(mech, config.finger, config.pvdf), config.pvdf, fs
     )
     analog = sensors.antialias(np.concatenate([pvdf, sg], axis=1), config.acquisition, fs)
-
-    idx = np.stack([p.window_start + k * np.arange(N_SAMPLES) for p in plans])
-    rows = np.arange(len(plans))[:, None]
-    sampled = analog[rows[:, :, None], np.arange(4)[None, :, None], idx[:, None, :]]
-    volts = sensors.digitise(
-        sampled,
-        config.acquisition,
-        SAMPLE_RATE_HZ,
-        [np.random.default_rng(p.noise_seed) for p in plans],
-        dc_coupled=np.array([0.0, 0.0, 1.0, 1.0]),  # PVDF AC-coupled, strain gauges DC
-        amplifier_noise_v=sensors.amplifier_noise_v(config),
-    )
+    amp_noise = sensors.amplifier_noise_v(config)
+    mot = config.motion
+    base_first = round((mot.ramp_s + mot.start_transient_s) * SAMPLE_RATE_HZ)
+    base = slice(base_first, base_first + round(BASELINE_S * SAMPLE_RATE_HZ))
     finite = np.empty(b, dtype=bool)
     kernels.finite_trials(sens, finite)
     # The sensors the trials' truth reads, at their samples: the pad's position, the
@@ -441,7 +495,32 @@ def _process(
     flat = sens.reshape(-1, sens.shape[-1])
     trials = []
     for i, p in enumerate(plans):
-        at = idx[i]
+        # The DAQ's record: from the slide's start to the trial's own last step.
+        n_rec = (p.steps - p.record_start) // k - 1
+        at_rec = p.record_start + k * np.arange(n_rec)
+        record = sensors.digitise(
+            analog[i : i + 1, :, at_rec],
+            config.acquisition,
+            SAMPLE_RATE_HZ,
+            [np.random.default_rng(p.noise_seed)],
+            dc_coupled=np.array([0.0, 0.0, 1.0, 1.0]),  # PVDF AC-coupled, strain gauges DC
+            amplifier_noise_v=amp_noise,
+        )[0]
+        if not finite[i]:
+            _check_trial(p, {}, False)
+        if mot.raised_shape:
+            phase = contact_phase_samples(record, base)
+            if phase is None:
+                raise SimulationError(
+                    f"the gauges show no edge in the record while simulating {_describe(p.spec)}"
+                )
+            middle = (phase[0] + phase[1]) / 2 + p.jitter_s * SAMPLE_RATE_HZ
+            first = round(middle - N_SAMPLES / 2)
+        else:  # the bare plate (calibration runs): no edge to cut at, the planned window
+            first = (p.window_start - p.record_start) // k
+        first = min(max(first, base.stop), n_rec - N_SAMPLES)
+        window = slice(first, first + N_SAMPLES)
+        at = at_rec[window]
         f = force[i, at]
         # The rows of the samples' steps in the sensors seen as (periods * b * k, n).
         row = flat.take((at // per) * (b * per) + i * per + at % per, axis=0)[:, read]
@@ -453,6 +532,7 @@ def _process(
             "tangential_force_n": np.hypot(f[:, 0], f[:, 1]),
             "friction_force_x_n": f[:, 0],
             "lateral_force_n": f[:, 1],
+            "texture_push_n": surface[i, at, 1],
             "finger_x_m": pad_pos[:, 0],
             "finger_y_m": pad_pos[:, 1],
             "finger_z_m": pad_pos[:, 2] - config.finger.pad_radius_m,
@@ -460,11 +540,12 @@ def _process(
             "slip_speed_m_s": np.hypot(slip[:, 0], slip[:, 1]),
             "indentation_m": mech.indentation_m[i, at],
             "contacts": row[:, 5],
-            "specimen_z_m": heights[i, at],
+            "specimen_z_m": surface[i, at, 0],
         }
         _check_trial(p, truth, bool(finite[i]))
         truth = {name: np.ascontiguousarray(v) for name, v in truth.items()}
-        trials.append(Trial(spec=p.spec, signals=volts[i].astype(np.float32), truth=truth))
+        signals = record[:, window].astype(np.float32)
+        trials.append(Trial(spec=p.spec, signals=signals, truth=truth))
     return trials
 
 
@@ -666,9 +747,9 @@ def replay(spec: TrialSpec, config: SynthConfig | None = None):
     p = plan(spec, config)
     loop = ClosedLoop([p.model], [p.loop], config, shape=spec.shape)
     datas = [mujoco.MjData(p.model)]
-    _, heights = loop.run(datas, _initial_states([p]), p.steps, 1, record_qpos=True)
+    _, surface = loop.run(datas, _initial_states([p]), p.steps, 1, record_qpos=True)
     _check_stable(loop, [p], datas, config)
-    return p.model, loop.qpos_[0], heights[0]
+    return p.model, loop.qpos_[0], surface[0, :, 0]
 
 
 def simulate(

@@ -316,6 +316,31 @@ def test_incompatible_format_version(tmp_path):
         run(None, out, resume=True)
 
 
+def test_an_old_store_whose_parameters_this_version_no_longer_reads_is_told_its_preset(
+    tmp_path, monkeypatch
+):
+    """A store of an older format whose simulator parameters were renamed since (its
+    configuration no longer loads) is refused with the command that regenerates its grid
+    from its preset, not with a --from-config that would fail."""
+    out = run(tiny(), tmp_path / "ds")
+    monkeypatch.undo()  # the real check of a stored simulator configuration
+    group = zarr.open_group(out, mode="r+")
+    meta = dict(group.attrs[store.ATTR_KEY])
+    meta["format_version"] = store.FORMAT_VERSION - 1
+    config = dict(meta["config"])
+    synth_cfg = dict(config["synth"] or {})
+    synth_cfg["finger"] = {**synth_cfg.get("finger", {}), "pdms_shear_stiffness_n_m": 1500.0}
+    config["synth"] = synth_cfg
+    for preset, advice in (
+        ("quick", r"generate --preset quick --out .* --overwrite"),
+        ("custom", r"your original `tactile-synth generate` command plus --overwrite"),
+    ):
+        meta["config"] = {**config, "preset": preset}
+        group.attrs[store.ATTR_KEY] = meta
+        with pytest.raises(ValueError, match=advice):
+            load_dataset(out)
+
+
 # -- export, inspect, plot ---------------------------------------------------------------
 def test_export_npz_and_csv(tmp_path):
     out = run(tiny(), tmp_path / "ds")

@@ -84,7 +84,8 @@ def test_the_compiled_controls_give_their_numpy_forms_bits():
     direction = np.stack([np.cos(angle), np.sin(angle)], axis=1)
     lever = np.array([0.007, -0.007])
     got = np.zeros((b, k, 30))
-    kernels.controls(h, slope, normal, xy, z_ref, direction, lever, mx, mz, got)
+    push = np.empty((b, k))
+    kernels.controls(h, slope, normal, xy, z_ref, direction, lever, mx, mz, got, push)
 
     want = np.zeros((b, k, 30))
     force = (slope * -normal[:, None])[:, :, None] * direction[:, None, :]
@@ -94,6 +95,7 @@ def test_the_compiled_controls_give_their_numpy_forms_bits():
     want[:, :, mx + 3 : mx + 5] = force[:, :, ::-1] * lever
     want[:, :, mz] = h
     assert np.array_equal(got, want)
+    assert np.array_equal(push, slope * -normal[:, None])
 
 
 def _state_inputs(rng, b, k, nstate, nsens, dt):

@@ -27,7 +27,8 @@ and PNG figures; :func:`summary_table` is the compact text the CLI prints.
 The package's modules, one job each: :mod:`.result` (constants and result types),
 :mod:`.nearest` (leave-one-out nearest neighbours), :mod:`.analysis` (:func:`diagnose`),
 :mod:`.text` (summary table and Markdown), :mod:`.plots` (figures) and :mod:`.files`
-(loading a store, writing the files, :func:`run_diagnose`).
+(loading a store, writing the files, :func:`run_diagnose`), :mod:`.steady` (material
+information on steady sliding, away from the edges).
 """
 
 from __future__ import annotations

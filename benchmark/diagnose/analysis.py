@@ -9,6 +9,7 @@ import numpy as np
 from synth import SAMPLE_RATE_HZ, Dataset
 
 from ..splits import condition_name
+from . import steady
 from .nearest import loo_nearest, loo_score
 from .result import (
     GROUP_NAMES,
@@ -299,4 +300,5 @@ def diagnose(
         confusion=confusion,
         spectra=_pvdf_spectra(data, cond, conditions, materials),
         sg_traces=_sg_traces(data, cond, conditions, shapes),
+        steady=steady.steady_diagnosis(data.signals, data.material),
     )

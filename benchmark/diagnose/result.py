@@ -176,6 +176,8 @@ class Diagnosis:
     confusion: dict[str, np.ndarray] = field(repr=False)
     spectra: PvdfSpectra = field(repr=False)
     sg_traces: SgTraces = field(repr=False)
+    #: The steady-sliding report (:func:`benchmark.diagnose.steady.steady_diagnosis`).
+    steady: dict[str, Any] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """Every number as JSON-friendly types (the curves only by reference and summary);
@@ -198,6 +200,7 @@ class Diagnosis:
                 "notes": self.notes,
                 "per_shape": self.per_shape,
                 "per_material": self.per_material,
+                "steady": self.steady,
                 "per_class": self.per_class,
                 "per_condition": self.per_condition,
                 "confused_pairs": {

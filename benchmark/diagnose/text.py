@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from . import steady
 from .result import (
     CURVES_NAME,
     GROUP_NAMES,
@@ -92,6 +93,7 @@ def summary_table(diag: Diagnosis) -> str:
             "most confused, all features: "
             + ", ".join(f"{p.a} ~ {p.b} {p.share:.2f}" for p in pairs)
         )
+    lines += steady.summary_lines(diag.steady, diag.accuracy.get("material"))
     lines += [f"note: {t}: {text}" for t, text in diag.notes.items() if t in targets]
     return "\n".join(lines)
 
@@ -235,6 +237,7 @@ def markdown(diag: Diagnosis, figures: dict[str, str] | None = None) -> str:
         for k, t in extra:
             md += [f"![{t}]({figures[k]})", ""]
         md.pop()
+    md += steady.markdown_lines(diag.steady, diag.accuracy.get("material"))
     md += [
         "",
         f"Numbers: `{JSON_NAME}`; curves: `{CURVES_NAME}` (numpy, no pickle). What each "

@@ -17,7 +17,7 @@ from ..trial import CHANNELS, N_SAMPLES
 #: Bumped whenever the layout above changes incompatibly or the simulator writes other
 #: signals for the same configuration (a store is only resumed by the simulator that
 #: started it).
-FORMAT_VERSION: int = 9
+FORMAT_VERSION: int = 10
 ATTR_KEY = "tactile_synth"
 #: The two kinds of store (attribute ``kind``; a store without it is simulated).
 KIND_SIMULATED = "simulated"

@@ -15,8 +15,9 @@ from shapes import SHAPE_NAMES
 from tactile_synth import atomic
 from tactile_synth.atomic import enclosing_store, is_store
 
+from ..config import SynthConfig
 from ..materials import MATERIAL_NAMES
-from ..presets import GenerationConfig
+from ..presets import PRESETS, GenerationConfig
 from .errors import DatasetError, Problem
 from .layout import (
     ATTR_KEY,
@@ -175,6 +176,23 @@ def rebuild_advice(path: Path, meta: dict[str, Any]) -> str:
     """How to rebuild the whole store ``path`` from what made it."""
     if store_kind(meta) == KIND_IMPORTED:
         return f"import it again with `{reimport_command(path, meta)}`"
+    try:
+        grid = GenerationConfig.from_dict(meta["config"])
+        if grid.synth is not None:
+            SynthConfig.from_dict(dict(grid.synth))  # the generator's own check
+    except (KeyError, TypeError, ValueError):
+        # A configuration this version no longer reads (a parameter renamed or derived
+        # now): the store's grid is regenerated under the current parameters.
+        preset = meta.get("config", {}).get("preset") if isinstance(meta, dict) else None
+        if isinstance(preset, str) and preset in PRESETS:
+            return (
+                f"its parameters predate this version's: regenerate the dataset with "
+                f"`tactile-synth generate --preset {preset} --out {path} --overwrite`"
+            )
+        return (
+            "its parameters predate this version's: regenerate it with your original "
+            "`tactile-synth generate` command plus --overwrite"
+        )
     return (
         f"regenerate the dataset with `tactile-synth generate --from-config "
         f"{path} --out {path} --overwrite`"

@@ -1,0 +1,129 @@
+"""What the films read of a material's texture while the finger slides steadily.
+
+    python3 scripts/bench_texture.py [--seeds 3] [--speeds 6 10 14] [--force 1.0]
+                                     [--set SECTION.FIELD=VALUE ...]
+
+Slides the finger over the square's top at ``--force`` newtons, at each speed and on
+each material, and keeps the steady-sliding segment of the window: the samples whose
+pad axis lies on the top at least ``--margin-mm`` (3 mm) from every wall, the longest
+such run. On it, the films' RMS in the texture band (20-400 Hz, a 4th-order
+Butterworth band-pass run forwards and backwards) is averaged over the two films and
+the seeds. Prints one row per material and speed, then the two checks of the texture
+targets: wood's RMS at least 3 times aluminium's at 10 mm/s, and the RMS rising from
+the slowest to the fastest speed on every material.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+import numpy as np
+import shapely
+from scipy import signal
+
+import shapes
+import synth
+from synth.trial import SAMPLE_RATE_HZ, TrialSpec
+from tactile_synth.validation import int_arg
+
+BAND_HZ = (20.0, 400.0)
+
+
+def steady_segment(trial: synth.Trial, margin_m: float) -> slice | None:
+    """The longest run of the window's samples whose pad axis is on the outline's top at
+    least ``margin_m`` from every wall (``None`` if there is none of 0.2 s)."""
+    poly = shapes.outline(trial.spec.shape)
+    pts = shapely.points(trial.truth["finger_x_m"], trial.truth["finger_y_m"])
+    inside = shapely.contains(poly, pts) & (shapely.distance(pts, poly.exterior) >= margin_m)
+    padded = np.concatenate([[0], inside.astype(np.int8), [0]])
+    edges = np.flatnonzero(np.diff(padded))
+    if edges.size == 0:
+        return None
+    starts, ends = edges[::2], edges[1::2]
+    best = int(np.argmax(ends - starts))
+    if ends[best] - starts[best] < 0.2 * SAMPLE_RATE_HZ:
+        return None
+    return slice(int(starts[best]), int(ends[best]))
+
+
+def band_rms(x: np.ndarray, band_hz: tuple[float, float] = BAND_HZ) -> float:
+    """RMS of ``x`` (1 kHz) in ``band_hz`` (4th-order Butterworth, forwards and back)."""
+    sos = signal.butter(4, band_hz, btype="bandpass", fs=SAMPLE_RATE_HZ, output="sos")
+    return float(np.sqrt(np.mean(signal.sosfiltfilt(sos, x - x.mean()) ** 2)))
+
+
+def measure(
+    config: synth.SynthConfig,
+    speeds: list[float],
+    seeds: int,
+    force_n: float,
+    margin_m: float,
+    shape: str = "square",
+) -> dict[str, dict[float, float]]:
+    """Films' mean texture-band RMS (volts) on the steady segment, per material and
+    speed, averaged over the two films and ``seeds`` trials."""
+    specs = [
+        TrialSpec(shape, m, force_n=force_n, speed_mm_s=v, seed=s)
+        for m in synth.MATERIAL_NAMES
+        for v in speeds
+        for s in range(seeds)
+    ]
+    trials = synth.simulate_batch(specs, config=config)
+    out: dict[str, dict[float, list[float]]] = {}
+    for t in trials:
+        seg = steady_segment(t, margin_m)
+        if seg is None:
+            raise SystemExit(f"bench_texture: no steady segment in {t.spec}")
+        rms = np.mean([band_rms(t.signals[c, seg].astype(float)) for c in (0, 1)])
+        out.setdefault(t.spec.material, {}).setdefault(t.spec.speed_mm_s, []).append(rms)
+    return {m: {v: float(np.mean(r)) for v, r in by.items()} for m, by in out.items()}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seeds", type=int_arg, default=3)
+    parser.add_argument("--speeds", type=float, nargs="+", default=[6.0, 10.0, 14.0])
+    parser.add_argument("--force", type=float, default=1.0)
+    parser.add_argument("--margin-mm", type=float, default=3.0)
+    parser.add_argument("--json", help="also write the table to this JSON file")
+    parser.add_argument(
+        "--set",
+        action="append",
+        metavar="SECTION.FIELD=VALUE",
+        help="measure another configuration (as scripts/calibrate.py whatif --set)",
+    )
+    args = parser.parse_args(argv)
+    if args.seeds < 1:
+        parser.error("--seeds must be at least 1")
+    if args.force <= 0 or min(args.speeds) <= 0 or args.margin_mm < 0:
+        parser.error("--force and --speeds must be > 0 and --margin-mm >= 0")
+    config = synth.SynthConfig()
+    if args.set:
+        from calibrate import _configured  # scripts/ is on the path when run as a script
+
+        config = _configured(args.set)
+    speeds = sorted(args.speeds)
+    table = measure(config, speeds, args.seeds, args.force, args.margin_mm * 1e-3)
+    print(f"films' {BAND_HZ[0]:g}-{BAND_HZ[1]:g} Hz RMS (mV) on the square's steady top, ")
+    print(f"{args.force:g} N, mean of 2 films x {args.seeds} seeds")
+    print("material    " + "".join(f"{v:>9g} mm/s" for v in speeds))
+    for m in synth.MATERIAL_NAMES:
+        print(f"{m:<12}" + "".join(f"{table[m][v] * 1e3:>14.3f}" for v in speeds))
+    ref = 10.0 if 10.0 in speeds else speeds[len(speeds) // 2]
+    ratio = table["wood"][ref] / table["aluminum"][ref]
+    rising = {m: table[m][speeds[-1]] > table[m][speeds[0]] for m in synth.MATERIAL_NAMES}
+    print(f"wood / aluminium at {ref:g} mm/s: {ratio:.2f} (target >= 3)")
+    print(
+        f"rises from {speeds[0]:g} to {speeds[-1]:g} mm/s: "
+        + ", ".join(f"{m} {'yes' if r else 'NO'}" for m, r in rising.items())
+    )
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump({m: {str(v): r for v, r in by.items()} for m, by in table.items()}, fh)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
