@@ -97,6 +97,14 @@ class Finger:
     ridge_jitter: float = 0.25
     #: Height of the two strain-gauge sites above the pad's mount (phalanx as a cantilever).
     gauge_heights_m: tuple[float, ...] = (0.012, 0.020)
+    #: The finger's pitch: the phalanx turned about the lateral (y) axis, the same axis
+    #: and sign as the pad's rocking on its support. 0: upright, as the paper's finger
+    #: slides. Modelled kinematically: the pad is a sphere, so it touches the surface the
+    #: same way whatever its tilt, but the films turn with it (they sit ``R sin(pitch)``
+    #: further back relative to the contact) and the gauges read the mount's loads in the
+    #: tilted phalanx's frame; the support's compliance keeps its upright axes, which
+    #: holds for small angles (the stress suite's ``pitch`` family goes to 15 deg).
+    pitch_rad: float = 0.0
 
     def __post_init__(self) -> None:
         params.positive(
@@ -132,6 +140,11 @@ class Finger:
             raise ValueError(
                 "Finger.skin_solimp must be (dmin, dmax, width_m, midpoint, power) with "
                 f"0 < dmin <= dmax < 1 and width_m > 0; got {imp!r}"
+            )
+        if not abs(params._value(self, "pitch_rad")) <= 0.6:
+            raise ValueError(
+                f"Finger.pitch_rad must lie within +-0.6 rad (34 deg: the pad still touches "
+                f"with its tip); got {self.pitch_rad!r}"
             )
         if len(self.gauge_heights_m) != 2 or min(self.gauge_heights_m) <= 0:
             raise ValueError(
@@ -259,6 +272,11 @@ class Motion:
     path_y_m: float = 0.002
     #: False: slide on the bare base plate (sensor calibration runs, physics checks).
     raised_shape: bool = True
+    #: The specimen turned in its fixture by this yaw (about the vertical), on top of the
+    #: stroke-to-stroke scatter (``Variability.yaw_rad``): the path crosses the outline at
+    #: this angle and the surface's marks run at it to the fingerprint's ridges. 0: the
+    #: specimen square to the path, as at enrolment.
+    specimen_yaw_rad: float = 0.0
 
     def __post_init__(self) -> None:
         params.positive(
@@ -298,6 +316,11 @@ class Motion:
             )
         if abs(params._value(self, "path_y_m")) > 0.01:
             raise ValueError(f"Motion.path_y_m must lie within +-0.01 m; got {self.path_y_m!r}")
+        if not abs(params._value(self, "specimen_yaw_rad")) < math.pi / 2:
+            raise ValueError(
+                f"Motion.specimen_yaw_rad must lie within +-pi/2 (a specimen turned by less than "
+                f"a right angle); got {self.specimen_yaw_rad!r}"
+            )
         if not isinstance(self.raised_shape, bool):
             raise ValueError(
                 f"Motion.raised_shape must be True or False; got {self.raised_shape!r}"

@@ -424,6 +424,7 @@ def touchable(
 def mechanics(
     sens,
     pitch_col,
+    pitch0,
     direction,
     cols,
     force,
@@ -439,10 +440,10 @@ def mechanics(
     pad position, contact depth, mount force, mount torque): the contact ``force`` ``(b,
     n, 3)`` (0 without a contact), the mount's force and torque turned from the rocking
     pad's frame into the phalanx's (by the pad's pitch, the sensors' column
-    ``pitch_col``), how far the contact centre lies ahead of the pad along the path
-    ``direction`` ``(b, 2)``, the skin's indentation (the deepest penetration, 0 without
-    one) and the traction along the path (:func:`synth.simulator._process`'s
-    mechanics)."""
+    ``pitch_col``, less the finger's own pitch ``pitch0``), how far the contact centre
+    lies ahead of the pad along the path ``direction`` ``(b, 2)``, the skin's indentation
+    (the deepest penetration, 0 without one) and the traction along the path
+    (:func:`synth.simulator._process`'s mechanics)."""
     c_contact, c_pad, c_depth, c_force, c_torque = cols[0], cols[1], cols[2], cols[3], cols[4]
     periods, b, per = sens.shape[0], sens.shape[1], sens.shape[2]
     for i in range(b):
@@ -452,7 +453,9 @@ def mechanics(
             found = row[c_contact] > 0
             for a in range(3):
                 force[i, t, a] = row[c_contact + 1 + a] if found else 0.0
-            c, s = math.cos(row[pitch_col]), math.sin(row[pitch_col])
+            # An upright finger (pitch0 0) turns by the pad's rocking alone, bit for bit.
+            angle = row[pitch_col] - pitch0 if pitch0 != 0.0 else row[pitch_col]
+            c, s = math.cos(angle), math.sin(angle)
             x, y, z = row[c_force], row[c_force + 1], row[c_force + 2]
             mount_force[i, t, 0] = c * x + s * z
             mount_force[i, t, 1] = y

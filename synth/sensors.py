@@ -97,7 +97,9 @@ def film_strains(mech: Mechanics, finger: Finger, pvdf: PVDF) -> np.ndarray:
         ahead,
         np.ascontiguousarray(mech.indentation_m, dtype=float),
         np.ascontiguousarray(mech.traction_n, dtype=float),
-        signs * pvdf.offset_m,
+        # A pitched finger turns the films about the pad's centre: its right-hand turn
+        # about y moves them back by R sin(pitch) against the contact.
+        signs * pvdf.offset_m - finger.pad_radius_m * math.sin(finger.pitch_rad),
         pvdf.length_m / 2.0,
         finger.pad_radius_m,
         -pvdf.neutral_axis_offset_m,

@@ -221,6 +221,8 @@ def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
     speed = spec.speed_mm_s * 1e-3 * _scatter(path, var.speed_rel)
     y_offset = mot.path_y_m + path.uniform(-1, 1) * var.lateral_offset_m
     yaw = path.standard_normal() * var.yaw_rad
+    if mot.specimen_yaw_rad:  # the specimen turned in its fixture
+        yaw += mot.specimen_yaw_rad
     jitter = path.uniform(-0.5, 0.5) * var.window_jitter_s
     friction_scale = float(_scatter(np.random.default_rng(material_ss), var.friction_rel))
     d_in, d_out = contact_phase_m(spec.shape, y_offset, yaw, touch_distance_m(config, force))
@@ -463,6 +465,7 @@ def _process(
     kernels.mechanics(
         sens,
         cols["pad_pitch"].start,
+        config.finger.pitch_rad,
         np.array([p.loop.direction for p in plans]),
         np.array([cols[c].start for c in _MECHANICS_COLUMNS]),
         force,

@@ -204,11 +204,11 @@ def test_the_compiled_mechanics_give_their_numpy_forms_bits():
     got = [np.empty((b, n, 3)), np.empty((b, n, 3)), np.empty((b, n, 3))]
     got += [np.empty((b, n)) for _ in range(3)]
     index = np.array([cols[c].start for c in names])
-    kernels.mechanics(sens[None], cols["pad_pitch"].start, direction, index, *got)
+    kernels.mechanics(sens[None], cols["pad_pitch"].start, 0.0, direction, index, *got)
     # The same sensors period-major (periods of 5 steps), as the closed loop writes them.
     periods = np.ascontiguousarray(np.moveaxis(sens.reshape(b, n // 5, 5, -1), 0, 1))
     again = [np.empty_like(g) for g in got]
-    kernels.mechanics(periods, cols["pad_pitch"].start, direction, index, *again)
+    kernels.mechanics(periods, cols["pad_pitch"].start, 0.0, direction, index, *again)
     for g, a in zip(got, again, strict=True):
         assert np.array_equal(g, a)
 

@@ -4,6 +4,7 @@ each physical family's configuration at severity 0 the nominal one."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from benchmark.stress import families
 from synth.presets import PRESETS, GenerationConfig, plan
@@ -27,3 +28,77 @@ def test_every_physical_family_is_the_nominal_configuration_at_severity_0():
         fam = families.get(name)
         if fam.kind == "physical":
             assert fam.configure(base, fam.value(0)) == base
+
+
+# -- each physical family's top severity, measured in the simulated physics ----------------
+def _simulate(name: str, value: float, shape: str = "square", seed: int = 3):
+    import synth
+    from synth import SynthConfig
+
+    fam = families.get(name)
+    config = fam.configure(PRESETS["quick"].replace(seed_by_condition=False), value)
+    sc = SynthConfig() if config.synth is None else SynthConfig.from_dict(config.synth)
+    force, speed = config.conditions[0]
+    return synth.simulate(shape, "wood", force_n=force, speed_mm_s=speed, seed=seed, config=sc)
+
+
+def _top_span_mm(trial) -> float:
+    """How far (mm) the pad slides while on top of the raised outline."""
+    z, x = trial.truth["finger_z_m"], trial.truth["finger_x_m"]
+    top = z > z.max() - 0.3e-3
+    return float(x[top].max() - x[top].min()) * 1e3
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [3, 4])
+def test_physical_families_change_the_simulated_physics_as_they_say(seed):
+    import math
+
+    nominal = {n: _simulate(n, families.get(n).nominal, seed=seed) for n in ("yaw", "force")}
+    # yaw: the path crosses the specimen at the family's angle
+    turned = _simulate("yaw", 30.0, seed=seed)
+    slope = np.polyfit(turned.truth["finger_x_m"], turned.truth["finger_y_m"], 1)[0]
+    assert math.degrees(math.atan(slope)) == pytest.approx(30.0, abs=0.5)
+    # offset: the rhombus' chord along the path shrinks by its diagonal's 16 / 5.5 per mm
+    a = _simulate("offset", 0.0, "rhombus", seed=seed)
+    b = _simulate("offset", 2.0, "rhombus", seed=seed)
+    shift = np.mean(b.truth["finger_y_m"]) - np.mean(a.truth["finger_y_m"])
+    assert shift == pytest.approx(2e-3, abs=0.05e-3)
+    assert _top_span_mm(a) - _top_span_mm(b) == pytest.approx(16 * 2 / 5.5, rel=0.1)
+    # skin: Hertz's indentation falls as the modulus to the power -2/3
+    stiff = _simulate("skin", 4.0, seed=seed)
+    ratio = np.median(stiff.truth["indentation_m"]) / np.median(
+        nominal["yaw"].truth["indentation_m"]
+    )
+    assert ratio == pytest.approx(4 ** (-2 / 3), rel=0.1)
+    # friction: the sliding coefficient scales by the factor
+
+    def mu(trial):
+        t = trial.truth
+        return np.median(np.abs(t["friction_force_x_n"]) / t["normal_force_n"])
+
+    assert mu(_simulate("friction", 0.3, seed=seed)) / mu(nominal["yaw"]) == pytest.approx(
+        0.3, rel=0.05
+    )
+    # force and speed: the robot's load and pace scale by the factor
+    heavy = _simulate("force", 2.0, seed=seed)
+    load = np.mean(heavy.truth["normal_force_n"]) / np.mean(
+        nominal["force"].truth["normal_force_n"]
+    )
+    assert load == pytest.approx(2.0, rel=0.05)
+
+    def pace(trial):
+        return np.polyfit(trial.truth["time_s"], trial.truth["finger_x_m"], 1)[0]
+
+    assert pace(_simulate("speed", 2.0, seed=seed)) / pace(nominal["yaw"]) == pytest.approx(
+        2.0, rel=0.05
+    )
+    # pitch: the front gauge reads the loads turned by the pitch (its mean moves about as
+    # sin(pitch)), and the films, turned with the pad, record something else
+    tilted = {p: _simulate("pitch", p, seed=seed) for p in (5.0, 10.0)}
+    shifts = {
+        p: np.mean(t.signals[2]) - np.mean(nominal["yaw"].signals[2]) for p, t in tilted.items()
+    }
+    assert np.sign(shifts[5.0]) == np.sign(shifts[10.0]) and abs(shifts[5.0]) > 5e-3
+    assert 1.6 < shifts[10.0] / shifts[5.0] < 2.2
+    assert np.abs(tilted[10.0].signals[:2] - nominal["yaw"].signals[:2]).max() > 0.05
