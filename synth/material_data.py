@@ -389,8 +389,10 @@ def _sub_table(where: str, table: Mapping[str, Any], key: str, header: str) -> M
     return sub
 
 
-def _number(where: str, table: Mapping[str, Any], path: str, key: str, bound: Bound) -> float:
-    """``table[key]`` as a float within ``bound``; the error names the field ``path``."""
+def _number(where: str, table: Mapping[str, Any], prefix: str, key: str, bound: str) -> float:
+    """``table[key]`` as a float within ``RANGES[bound]``; the error names the field
+    ``prefix + key``."""
+    path = prefix + key
     if key not in table:
         raise ValueError(f"{where}: {path} is required")
     value = table[key]
@@ -398,15 +400,15 @@ def _number(where: str, table: Mapping[str, Any], path: str, key: str, bound: Bo
         raise ValueError(f"{where}: {path} must be a number; got {value!r}")
     if not math.isfinite(value):
         raise ValueError(f"{where}: {path} must be a finite number; got {value!r}")
-    if not bound.contains(value):
-        raise ValueError(f"{where}: {path} {bound.rule}; got {value!r}")
+    if not RANGES[bound].contains(value):
+        raise ValueError(f"{where}: {path} {RANGES[bound].rule}; got {value!r}")
     return float(value)
 
 
 def _friction(where: str, table: Mapping[str, Any]) -> FrictionLaw:
     _check_keys(where, "friction key", table, FRICTION_KEYS)
     values = {
-        key: _number(where, table, f"friction.{key}", key, RANGES[f"friction.{key}"])
+        key: _number(where, table, "friction.", key, f"friction.{key}")
         for key in FRICTION_KEYS
         if key in table or key not in OPTIONAL_KEYS
     }
@@ -423,20 +425,8 @@ def _friction(where: str, table: Mapping[str, Any]) -> FrictionLaw:
 
 def _texture(where: str, table: Mapping[str, Any]) -> Texture:
     _check_keys(where, "texture key", table, TEXTURE_KEYS)
-    rough = _number(
-        where,
-        table,
-        "texture.roughness_rms_m",
-        "roughness_rms_m",
-        RANGES["texture.roughness_rms_m"],
-    )
-    corr = _number(
-        where,
-        table,
-        "texture.correlation_length_m",
-        "correlation_length_m",
-        RANGES["texture.correlation_length_m"],
-    )
+    rough = _number(where, table, "texture.", "roughness_rms_m", "texture.roughness_rms_m")
+    corr = _number(where, table, "texture.", "correlation_length_m", "texture.correlation_length_m")
     marks = table.get("periodic", [])
     if not isinstance(marks, list) or not all(isinstance(m, Mapping) for m in marks):
         raise ValueError(
@@ -453,16 +443,8 @@ def _texture(where: str, table: Mapping[str, Any]) -> Texture:
 def _periodic(where: str, index: int, table: Mapping[str, Any]) -> Periodic:
     path = f"texture.periodic[{index}]"
     _check_keys(where, f"{path} key", table, PERIODIC_KEYS)
-    wavelength = _number(
-        where,
-        table,
-        f"{path}.wavelength_m",
-        "wavelength_m",
-        RANGES["texture.periodic.wavelength_m"],
-    )
-    amplitude = _number(
-        where, table, f"{path}.amplitude_m", "amplitude_m", RANGES["texture.periodic.amplitude_m"]
-    )
+    wavelength = _number(where, table, f"{path}.", "wavelength_m", "texture.periodic.wavelength_m")
+    amplitude = _number(where, table, f"{path}.", "amplitude_m", "texture.periodic.amplitude_m")
     if 2 * math.pi * amplitude > MAX_MARK_SLOPE * wavelength:
         raise ValueError(
             f"{where}: {path}.amplitude_m must be <= wavelength_m / (2 pi) = "
