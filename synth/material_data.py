@@ -229,7 +229,8 @@ def parse_materials(
     tables: object, *, file: str, library_names: Collection[str] | None = None
 ) -> dict[str, Material]:
     """The materials of an already parsed file's ``material`` array, by name in the
-    file's order.
+    file's order; ``{}`` if ``tables`` is None (an experiment file that defines no
+    material of its own and names only library ones).
 
     Every table is checked (:func:`material_from_table`); two tables may not share a
     name; a name in ``library_names`` (default: the names of :func:`library`) is an
@@ -237,6 +238,8 @@ def parse_materials(
     library does not hold is an error too (most likely a misspelt name). Raises a
     one-line ``ValueError`` naming ``file``, the entry and the rule.
     """
+    if tables is None:
+        return {}
     if library_names is None:
         library_names = tuple(library())
     return _parse(tables, file=file, reserved=tuple(library_names), allow_replace=True)
@@ -254,7 +257,9 @@ def load_materials(path: str | os.PathLike) -> dict[str, Material]:
     file = str(path)
     data = _read_toml(path)
     _check_keys(file, "top-level key", data, ("material",))
-    return parse_materials(data.get("material"), file=file)
+    if "material" not in data:
+        raise ValueError(f"{file}: no [[material]] tables (see docs/materials.md)")
+    return parse_materials(data["material"], file=file)
 
 
 def library() -> dict[str, Material]:

@@ -327,6 +327,7 @@ def test_parse_materials_takes_the_library_names_it_is_given():
     }
     with pytest.raises(ValueError, match="'glass' is a library material"):
         md.parse_materials(tables, file="x.toml")
+    assert md.parse_materials(None, file="x.toml") == {}  # an experiment naming only the library's
 
 
 @pytest.mark.parametrize(
