@@ -94,9 +94,9 @@ class Bound:
 #: with the dataclasses' own checks is the same rule (static < 3, load_exponent in -1..0,
 #: lengths >= 0 or > 0); these ranges are narrower, never wider.
 RANGES: dict[str, Bound] = {
-    # Dry skin and skin-like elastomers on solids run from ~0.1 (PTFE) to 2-3 (clean
-    # glass); below 0.05 is a lubricated bearing, not a fingertip. FrictionLaw accepts
-    # static < 3, so 3 itself is excluded.
+    # A dry skin-on-solid coefficient: silicone on PLA spans 0.62-1.67 (the library
+    # file's header) and soft adhesive contacts on smooth glass run higher; below 0.05 is
+    # a lubricated bearing, not a dry fingertip. FrictionLaw accepts static < 3 only.
     "friction.kinetic": Bound(
         0.05, 3.0, "0.05..3 (3 excluded)", "a dry skin-on-solid coefficient", hi_open=True
     ),
@@ -104,8 +104,9 @@ RANGES: dict[str, Bound] = {
         0.05, 3.0, "0.05..3 (3 excluded)", "a dry skin-on-solid coefficient", hi_open=True
     ),
     # Two decades either side of the 1 mm/s default: below 10 um/s the static level
-    # would hold only at imperceptible creep; above 0.1 m/s, ten times the sliding speeds,
-    # the coefficient would never reach its kinetic value during a stroke.
+    # would hold only at imperceptible creep; above 0.1 m/s, four times the fastest
+    # sliding speed the simulator accepts (24 mm/s), the coefficient would never reach
+    # its kinetic value during a stroke.
     "friction.stribeck_velocity_m_s": Bound(
         1e-5, 0.1, "1e-5..0.1 m/s", "a velocity-weakening scale below sliding speeds"
     ),
@@ -115,8 +116,9 @@ RANGES: dict[str, Bound] = {
     "friction.load_exponent": Bound(
         -1.0, 0.0, "-1..0", "a soft contact's coefficient falls with load, at most as 1/F"
     ),
-    # Coarse sandpaper (P60-P80) reaches a few tens of um RMS; a rougher relief is not a
-    # surface a fingertip slides on but one it catches on.
+    # P120 sandpaper measures Rq ~53 um (the library's sandpaper_p120); 100 um leaves room
+    # for coarser papers, and a rougher relief is one a fingertip catches on rather than
+    # slides over.
     "texture.roughness_rms_m": Bound(0.0, 100e-6, "0..100e-6 m", "up to coarse sandpaper"),
     # Below 1 um the relief is far under the simulator's 5 um profile grid and the
     # 0.15 mm fingerprint ridges; beyond 5 mm the exponential model puts most of its

@@ -452,10 +452,13 @@ def test_ranges_are_never_wider_than_the_dataclasses_checks(field):
 def test_range_bounds_follow_from_the_simulator():
     from shapes import limits
     from synth import texture
+    from synth.presets import SPEED_RANGE_MM_S
 
     wavelength = md.RANGES["texture.periodic.wavelength_m"]
     assert wavelength.lo == pytest.approx(2 * texture.GRID_M)  # no aliasing on the grid
     assert wavelength.hi == pytest.approx(limits.WINDOW_S * limits.NOMINAL_SPEED_M_S)
+    stribeck = md.RANGES["friction.stribeck_velocity_m_s"]
+    assert stribeck.hi / (SPEED_RANGE_MM_S[1] * 1e-3) == pytest.approx(4, rel=0.1)
     assert md.RANGES["friction.static"].hi == 3.0 and md.RANGES["friction.static"].hi_open
     assert md.RANGES["friction.load_exponent"].lo == -1.0
     assert md.RANGES["friction.load_exponent"].hi == 0.0
