@@ -10,7 +10,7 @@ from tactile_synth.validation import check_int
 
 from . import figures
 from .budget import Budget
-from .engine import Features, check_methods
+from .engine import Features, check_methods, protocol_tasks
 from .guards import check_episodes, check_perturbation_pair
 from .outputs import OutputDir
 from .protocols import get
@@ -71,6 +71,11 @@ def benchmark_protocol(
         check_perturbation_pair(data, perturbed)
     inputs = {"--data": data_path, "--perturbed": perturbed_path}
     with OutputDir(out, overwrite=overwrite, command=f"benchmark {protocol}", inputs=inputs) as out:
+        if chosen is not None:
+            try:  # a protocol that cannot apply is refused before anything is fitted
+                protocol_tasks(chosen, data, perturbed, episodes=episodes, seed=seed)
+            except NotApplicable as exc:
+                raise NotApplicable(f"--data: {exc}") from None
         if chosen is None:
             return benchmark_all(
                 data,
@@ -84,7 +89,7 @@ def benchmark_protocol(
                 perturbed_path=perturbed_path,
                 workers=workers,
             )
-        records, processes, skipped = run_protocols(
+        records, processes, _ = run_protocols(
             [chosen, Reference()] if chosen.uses_reference else [chosen],
             data,
             perturbed,
@@ -96,8 +101,6 @@ def benchmark_protocol(
             features=Features(),
             workers=workers,
         )
-        if chosen.name in skipped:
-            raise NotApplicable(f"--data: {skipped[chosen.name]}")
         write_results(out / "results.json", records)
         made: dict[str, str] = {}
         if select(records, "accuracy", protocol="closed-set", condition=None):

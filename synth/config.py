@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, Self
 
@@ -638,3 +639,14 @@ class SynthConfig:
     def from_dict(cls, data: Any) -> SynthConfig:
         """Rebuild from :meth:`to_dict` output; unknown or missing keys raise ValueError."""
         return params.from_dict(cls, data)
+
+
+def default_synth_config() -> dict[str, Any]:
+    """The simulator's default settings as a generation configuration stores them."""
+    return SynthConfig().to_dict()
+
+
+def validate_synth_config(synth: Mapping[str, Any]) -> None:
+    """``ValueError`` unless ``synth`` holds valid simulator settings (every reader of a
+    stored configuration checks it here)."""
+    SynthConfig.from_dict(dict(synth))

@@ -36,6 +36,7 @@ from tactile_synth.interrupts import StopRequests
 from tactile_synth.threads import available_cpus, init_worker, rollout_threads, worker_threads
 from tactile_synth.validation import check_int
 
+from . import config as config_mod
 from . import store
 from .presets import GenerationConfig, plan, preset
 from .progress import progress as show_progress
@@ -95,18 +96,6 @@ def simulate_trials(specs: Sequence[TrialSpec], config: Any, threads: int) -> li
             f"{reason} while simulating shape={culprit.shape!r}, material={culprit.material!r}, "
             f"force_n={culprit.force_n}, speed_mm_s={culprit.speed_mm_s}, seed={culprit.seed}"
         ) from None
-
-
-def default_synth_config() -> dict[str, Any]:
-    from . import SynthConfig
-
-    return SynthConfig().to_dict()
-
-
-def validate_synth_config(synth: Mapping[str, Any]) -> None:
-    from . import SynthConfig
-
-    SynthConfig.from_dict(dict(synth))
 
 
 def validate_grid(config: GenerationConfig) -> None:
@@ -407,8 +396,8 @@ def prepare(
             f"--out {out} exists and is not empty{hint}; pass --resume to complete it, "
             f"--overwrite to replace it, or choose another path"
         )
-    synth = dict(config.synth) if config.synth is not None else default_synth_config()
-    validate_synth_config(synth)
+    synth = dict(config.synth) if config.synth is not None else config_mod.default_synth_config()
+    config_mod.validate_synth_config(synth)
     config = config.replace(synth=synth)
     if mujoco_plans:
         validate_grid(config)

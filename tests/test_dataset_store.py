@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 import zarr
 
+import synth.config
 import synth.generation as generation
 from synth import CLASS_NAMES, PRESETS, GenerationConfig, SynthConfig, load_dataset, store
 from synth.dataset_cli import register  # noqa: F401 - the CLI module must import cleanly
@@ -46,8 +47,8 @@ class FakeSimulator:
 
 @pytest.fixture(autouse=True)
 def _no_real_synth_config(monkeypatch):
-    monkeypatch.setattr(generation, "validate_synth_config", lambda synth: None)
-    monkeypatch.setattr(generation, "default_synth_config", lambda: dict(FAKE_SYNTH))
+    monkeypatch.setattr(synth.config, "validate_synth_config", lambda synth: None)
+    monkeypatch.setattr(synth.config, "default_synth_config", lambda: dict(FAKE_SYNTH))
 
 
 def tiny(**changes) -> GenerationConfig:

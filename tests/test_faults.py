@@ -60,9 +60,9 @@ class FakeSimulator:
 @pytest.fixture(autouse=True)
 def _fake_simulator(monkeypatch):
     """The CLI's generate uses the stand-in too (threads in this process look it up)."""
-    monkeypatch.setattr(generation, "validate_synth_config", lambda synth: None)
+    monkeypatch.setattr(synth.config, "validate_synth_config", lambda synth: None)
     monkeypatch.setattr(generation, "validate_grid", lambda config: None)
-    monkeypatch.setattr(generation, "default_synth_config", lambda: dict(FAKE_SYNTH))
+    monkeypatch.setattr(synth.config, "default_synth_config", lambda: dict(FAKE_SYNTH))
     monkeypatch.setattr(generation, "mujoco_simulator", FakeSimulator())
 
 
@@ -121,11 +121,12 @@ def complete(tmp_path) -> tuple[Path, dict[str, bytes]]:
 _HOLDER = """
 import pathlib, sys, time
 import numpy as np
+import synth.config
 import synth.generation as g
 from synth import GenerationConfig
-g.validate_synth_config = lambda synth: None
+synth.config.validate_synth_config = lambda synth: None
 g.validate_grid = lambda config: None
-g.default_synth_config = lambda: {"fake": True}
+synth.config.default_synth_config = lambda: {"fake": True}
 out, gate = sys.argv[1], pathlib.Path(sys.argv[2])
 
 def sim(specs, synth, threads):
@@ -629,7 +630,7 @@ def test_ctrl_c_during_planning_suggests_the_original_command(tmp_path, capsys, 
     def interrupted(synth):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(generation, "validate_synth_config", interrupted)
+    monkeypatch.setattr(synth.config, "validate_synth_config", interrupted)
     args = ["generate", "--out", str(out), *GRID]
     code, _, err = cli(args, capsys)
     assert code == 130
@@ -826,7 +827,7 @@ def test_failed_checks_leave_no_new_output_directory(complete, capsys, tmp_path)
     for args, expect in (
         (["benchmark", "all", "--perturbed", pert, "--methods", "Direct-Prot-ML"], "AFOP-ML"),
         (["benchmark", "closed-set"], "too small for any Table I column"),
-        (["benchmark", "cross-shape", "--methods", "AFOP-ML"], "--data has no trial of the"),
+        (["benchmark", "cross-shape", "--methods", "AFOP-ML"], "needs >= 2 classes on each side"),
     ):
         code, _, err = cli([*args, "--data", out, "--out", new, "--episodes", "1"], capsys)
         assert code == 2 and expect in one_line(err)

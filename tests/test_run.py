@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 
 import synth
-import synth.generation as generation
 from benchmark.budget import Budget
 from benchmark.engine import Features
 from benchmark.figures import FIGURE_FILES
@@ -216,8 +215,8 @@ class FakeSimulator:
 
 
 def test_run_quick_with_fake_simulator_is_resumable(tmp_path, monkeypatch):
-    monkeypatch.setattr(generation, "validate_synth_config", lambda synth: None)
-    monkeypatch.setattr(generation, "default_synth_config", lambda: {"fake": True})
+    monkeypatch.setattr(synth.config, "validate_synth_config", lambda synth: None)
+    monkeypatch.setattr(synth.config, "default_synth_config", lambda: {"fake": True})
     import benchmark.plan as plan
 
     monkeypatch.setattr(plan, "QUICK_METHODS", ("AFOP-ML",))

@@ -25,5 +25,5 @@ class CrossMaterial(Protocol):
     ) -> list[Task]:
         """One task per training material: fit on it, test on the others."""
         splits = cross_material_splits(data)
-        check_splits(self.name, splits, "materials", data.materials, ">= 2 materials")
+        check_splits(self.name, data, splits)
         return split_tasks(self.name, data, splits, seed=seed, episodes=episodes)

@@ -26,5 +26,5 @@ class CrossShape(Protocol):
     ) -> list[Task]:
         """One task per fold: fit on its training specimens, test on its unseen ones."""
         splits = cross_shape_splits(data)
-        check_splits(self.name, splits, "shapes", data.specimens, ">= 2 specimens")
+        check_splits(self.name, data, splits)
         return split_tasks(self.name, data, splits, seed=seed, episodes=episodes)

@@ -15,7 +15,7 @@ from synth import Dataset
 
 from ..budget import EpisodeBudget
 from ..engine import Cell, Pool, Task, child_seed
-from ..splits import Split
+from ..splits import NotApplicable, Split
 
 #: The N of the paper's generalisation curves (Fig. 5): 2..12-way.
 WAYS: tuple[int, ...] = tuple(range(2, 13))
@@ -27,23 +27,20 @@ def curve_grid(seed: int, protocol: str, task_index: int) -> tuple[Cell, ...]:
     return tuple(Cell(way, SHOT, child_seed(seed, protocol, task_index, way)) for way in WAYS)
 
 
-def check_splits(
-    protocol: str, splits: Sequence[Split], kind: str, have: Sequence[str], needs: str
-) -> None:
-    """Refuse, naming --data, a dataset in which a split has no training or no test trial
-    (the engine cannot fit or test on nothing): the message names the ``kind`` (shapes,
-    materials) that split needs, ``have`` (what the dataset holds) and ``needs`` (what the
-    protocol needs)."""
+def check_splits(protocol: str, data: Dataset, splits: Sequence[Split]) -> None:
+    """Refuse, as not applicable to ``data``, splits a method cannot be fitted on or tested
+    on: each side of every split needs trials of at least 2 classes (a fit learns to tell
+    classes apart; the smallest episode is 2-way). The message says what the dataset
+    holds."""
     for s in splits:
-        for side, mask, values in (
-            ("trains", s.train, s.train_values),
-            ("tests", s.test, s.test_values),
-        ):
-            if not mask.any():
-                raise ValueError(
-                    f"--data has no trial of the {kind} {', '.join(values)} that "
-                    f"{protocol} split {s.fold} {side} on (--data holds "
-                    f"{', '.join(have) or 'none'}); the {protocol} protocol needs {needs}"
+        for side, mask in (("trains", s.train), ("tests", s.test)):
+            names = sorted({data.classes[i] for i in np.unique(data.label[mask])})
+            if len(names) < 2:
+                raise NotApplicable(
+                    f"{protocol} needs >= 2 classes on each side of every split; split "
+                    f"{s.fold} {side} on {len(names)} ({', '.join(names) or 'none'}) of this "
+                    f"dataset's {len(data.specimens)} specimen(s) x {len(data.materials)} "
+                    f"material(s)"
                 )
 
 

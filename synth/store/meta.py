@@ -15,7 +15,7 @@ from shapes import SHAPE_NAMES
 from tactile_synth import atomic
 from tactile_synth.atomic import enclosing_store, is_store
 
-from ..config import SynthConfig
+from .. import config as config_mod
 from ..materials import MATERIAL_NAMES
 from ..presets import PRESETS, GenerationConfig
 from .errors import DatasetError, Problem
@@ -179,7 +179,7 @@ def rebuild_advice(path: Path, meta: dict[str, Any]) -> str:
     try:
         grid = GenerationConfig.from_dict(meta["config"])
         if grid.synth is not None:
-            SynthConfig.from_dict(dict(grid.synth))  # the generator's own check
+            config_mod.validate_synth_config(grid.synth)  # the generator's own check
     except (KeyError, TypeError, ValueError):
         # A configuration this version no longer reads (a parameter renamed or derived
         # now): the store's grid is regenerated under the current parameters.
