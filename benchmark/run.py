@@ -19,7 +19,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import NamedTuple
 
-from models.registry import METHOD_NAMES
+from models.registry import DEFAULT_METHODS, MethodOptions, check_method_options
 from shapes.validation import check_int
 from synth import Dataset, atomic
 from synth.store import versions as store_versions
@@ -57,6 +57,16 @@ NOTES = (
 )
 
 
+def options_notes(options: MethodOptions | None) -> list[str]:
+    """The report's note on each method built with options other than its defaults."""
+    return [
+        f"{method} built with {', '.join(f'{k}={v!r}' for k, v in params.items())} "
+        "(--method-option)."
+        for method, params in (options or {}).items()
+        if params
+    ]
+
+
 def run_protocols(
     protocols: Sequence[Protocol],
     data: Dataset,
@@ -69,19 +79,24 @@ def run_protocols(
     progress: bool,
     features: Features,
     workers: int = 1,
+    options: MethodOptions | None = None,
 ) -> ProtocolRuns:
     """Every protocol's records, each from its checkpoint in ``out`` when the inputs are
     unchanged, else run by the engine and checkpointed as soon as it completes. The
     protocols still to run share one queue of fits (:func:`benchmark.engine.run_task_sets`)
-    in up to ``workers`` processes."""
+    in up to ``workers`` processes; ``options``: constructor options per method."""
     base = {
         "data": checkpoints.fingerprint(data),
         "perturbed": None if perturbed is None else checkpoints.fingerprint(perturbed),
         "methods": list(methods),
-        "settings": checkpoints.method_settings(methods),
+        "settings": checkpoints.method_settings(methods, options),
         "version": store_versions()["package_version"],
         "seed": seed,
     }
+    # Options join the key only when there are any (keys of runs without them unchanged).
+    if options:
+        base["options"] = {m: dict(o) for m, o in options.items()}
+        base["option_files"] = checkpoints.option_files(options)
     # Plug-ins' source hashes join the key only when there are any, so that the keys of
     # runs of built-in methods and protocols stay those of earlier versions.
     sources = checkpoints.method_sources(methods)
@@ -141,6 +156,7 @@ def run_protocols(
             workers=workers,
             on_done=done,
             fit_cache=fits,
+            options=options,
         ).processes
         fits.clear()
     return ProtocolRuns([r for i in range(len(protocols)) for r in found[i]], processes)
@@ -204,18 +220,20 @@ def benchmark_all(
     perturbed: Dataset,
     out: str | Path,
     *,
-    methods: Sequence[str] = METHOD_NAMES,
+    methods: Sequence[str] = DEFAULT_METHODS,
     budget: Budget | None = None,
     seed: int = 0,
     progress: bool = True,
     data_path: str | Path | None = None,
     perturbed_path: str | Path | None = None,
     workers: int | None = None,
+    options: MethodOptions | None = None,
 ) -> list[Record]:
     """All four protocols + interpretability on ``data`` (nominal) and ``perturbed``;
     writes ``out/results.json``, ``out/report.md`` and the PNG figures. Returns records.
 
-    workers: processes the protocols' fits run in (default :func:`default_workers`)."""
+    workers: processes the protocols' fits run in (default :func:`default_workers`);
+    options: constructor options per method (``--method-option``)."""
     from .interpret import analyse
     from .protocols.closed_set import Reference
 
@@ -223,6 +241,7 @@ def benchmark_all(
     methods = check_methods(methods)
     if "AFOP-ML" not in methods:
         raise ValueError("methods must include AFOP-ML (the report and Fig. 6/7 are about it)")
+    options = check_method_options(options or {}, methods)
     check_int("seed", seed, minimum=0)
     budget = budget or Budget()
     out = Path(out)
@@ -245,6 +264,7 @@ def benchmark_all(
         progress=progress,
         features=features,
         workers=workers,
+        options=options,
     )
     log(progress, "t-SNE of the closed-set AFOP-ML fit's top-D features")
     extra, artefacts = analyse(data, records, features=features, episodes=budget.default, seed=seed)
@@ -262,7 +282,7 @@ def benchmark_all(
         "cross_shape_folds": [list(f) for f in CROSS_SHAPE_FOLDS],
         "figures": draw_figures(records, data, artefacts, out),
         "figure_notes": figure_notes(records, artefacts, seed),
-        "notes": list(NOTES),
+        "notes": [*NOTES, *options_notes(options)],
     }
     write_report(records, out, meta)
     log(progress, f"benchmark done in {time.perf_counter() - t_start:.0f} s")
@@ -281,11 +301,12 @@ def run(
     overwrite: bool = False,
     data: str | Path | None = None,
     perturbed: str | Path | None = None,
+    options: MethodOptions | None = None,
 ) -> list[Record]:
     """Generate the nominal and perturbation datasets into ``out/data`` (reusing or
     completing any already there) and run :func:`benchmark_all` into ``out`` with the
     plan's methods, or ``methods`` (names, plug-in names or ``module:Class``; must include
-    AFOP-ML).
+    AFOP-ML), each built with its ``options`` (``--method-option``).
 
     ``data`` / ``perturbed``: existing dataset stores (generated or imported with
     ``tactile-synth import``) used instead of generating the nominal / perturbation
@@ -312,6 +333,7 @@ def run(
     plan = run_plan(quick, seed=seed, methods=methods)
     if "AFOP-ML" not in plan.methods:
         raise ValueError("methods must include AFOP-ML (the report and Fig. 6/7 are about it)")
+    options = check_method_options(options or {}, plan.methods)
     given = {"nominal": data, "perturbation": perturbed}
     for path, arg in zip(given.values(), ("data", "perturbed"), strict=True):
         if path is not None and not Path(path).is_dir():
@@ -338,6 +360,7 @@ def run(
             data_path=paths["nominal"],
             perturbed_path=paths["perturbation"],
             workers=workers,
+            options=options,
         )
     log(progress, f"done in {time.perf_counter() - t_start:.0f} s (datasets and benchmark)")
     return records
