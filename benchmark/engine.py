@@ -496,6 +496,20 @@ def run_fit(
     return FitResult(out)
 
 
+def job_cost(group: FitGroup, name: str) -> float:
+    """Rough CPU seconds of fitting ``name`` on ``group`` and evaluating its cells: the
+    method class's ``cost_hint`` (fit seconds, seconds per 1000 cell-episodes) applied to
+    the group's episodes; only used to order the queue of fits."""
+    fit_s, eval_s = getattr(registry.method_class(name), "cost_hint", (1.0, 1.0))
+    episodes = sum(
+        len(task.grid) * task.episodes.of(name)
+        for share in group.shares
+        if name in share.methods
+        for task in share.tasks
+    )
+    return float(fit_s) + float(eval_s) * episodes / 1000
+
+
 def run_task_sets(
     task_sets: Sequence[Sequence[Task]],
     methods: Sequence[str],
@@ -588,6 +602,10 @@ def run_task_sets(
         finished(job, result)
 
     processes = fit_processes(workers, len(todo)) if todo else 0
+    if processes > 1:
+        # The costliest jobs first, so that the last ones to finish are short (a worker
+        # idles once the queue is empty); the order changes no result.
+        todo.sort(key=lambda job: -job_cost(groups[job[0]], job[1]))
     try:
         if processes <= 1:
             for g, name in todo:

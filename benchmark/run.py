@@ -48,23 +48,32 @@ from .splits import CROSS_SHAPE_FOLDS
 __all__ = ["benchmark_all", "dataset_summary", "run", "run_plan", "run_protocols"]
 
 NOTES = (
-    "CWT-ResNet-ML's ResNet was pretrained from scratch on each task's training classes "
-    "only (no ImageNet weights: none may be downloaded, and none would have seen tactile "
-    "scalograms).",
     "The perturbation protocol tests the closed-set fit of each method (fitted once on the "
     "closed-set training half of the nominal dataset, the same seeded 50:50 per-class "
     "split).",
 )
+#: The report's note on CWT-ResNet-ML's network when it is not started from given weights.
+CWT_SCRATCH_NOTE = (
+    "CWT-ResNet-ML's ResNet was trained from scratch on each task's training classes (its "
+    "epoch count chosen on held-out training classes, then trained on all of them): the "
+    "paper's pretrained ResNet weights cannot be downloaded at run time "
+    "(--method-option CWT-ResNet-ML:weights=PATH starts from a ResNet-18 state dict you have)."
+)
 
 
-def options_notes(options: MethodOptions | None) -> list[str]:
-    """The report's note on each method built with options other than its defaults."""
-    return [
+def options_notes(options: MethodOptions | None, methods: Sequence[str] | None = None) -> list[str]:
+    """The report's note on each method built with options other than its defaults, and
+    on CWT-ResNet-ML's network when it is among ``methods`` without given weights."""
+    options = options or {}
+    notes = [
         f"{method} built with {', '.join(f'{k}={v!r}' for k, v in params.items())} "
         "(--method-option)."
-        for method, params in (options or {}).items()
+        for method, params in options.items()
         if params
     ]
+    if "CWT-ResNet-ML" in (methods or ()) and not options.get("CWT-ResNet-ML", {}).get("weights"):
+        notes.append(CWT_SCRATCH_NOTE)
+    return notes
 
 
 def run_protocols(
@@ -282,7 +291,7 @@ def benchmark_all(
         "cross_shape_folds": [list(f) for f in CROSS_SHAPE_FOLDS],
         "figures": draw_figures(records, data, artefacts, out),
         "figure_notes": figure_notes(records, artefacts, seed),
-        "notes": [*NOTES, *options_notes(options)],
+        "notes": [*NOTES, *options_notes(options, methods)],
     }
     write_report(records, out, meta)
     log(progress, f"benchmark done in {time.perf_counter() - t_start:.0f} s")

@@ -130,7 +130,7 @@ def benchmark_protocol(
             "threads": threads_line(processes),
             "kernels": kernels_line(processes),
             "figures": made,
-            "notes": [f"protocol {chosen.name} only", *options_notes(options)],
+            "notes": [f"protocol {chosen.name} only", *options_notes(options, methods)],
         }
         write_report(records, out, meta)
         return records

@@ -128,6 +128,7 @@ class AFOMLPML(FewShotMethod):
     projection's output)."""
 
     name = "AFO-MLP-ML"
+    cost_hint = (7.0, 2.0)
 
     def __init__(
         self,
@@ -189,6 +190,7 @@ class AFOMLPMLMeta(FewShotMethod):
     projection's output)."""
 
     name = "AFO-MLP-ML+meta"
+    cost_hint = (8.0, 15.0)
 
     def __init__(
         self,

@@ -161,6 +161,7 @@ class BiLSTMBaseline(FewShotMethod):
     given); ``feature_dim_`` = 32 (both directions' final hidden states)."""
 
     name = "BiLSTM"
+    cost_hint = (30.0, 30.0)
 
     def __init__(self, *, seed: int = 0, steps: int | None = None, lr: float | None = None):
         super().__init__(seed=seed)

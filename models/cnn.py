@@ -90,6 +90,7 @@ class CNNBaseline(FewShotMethod):
     ``feature_dim_`` = 16."""
 
     name = "CNN"
+    cost_hint = (60.0, 60.0)
 
     def __init__(self, *, seed: int = 0, steps: int | None = None, lr: float | None = None):
         super().__init__(seed=seed)

@@ -308,6 +308,7 @@ class CWTResNetML(FewShotMethod):
     (``arch="small"``) or 512 (ResNet-18)."""
 
     name = "CWT-ResNet-ML"
+    cost_hint = (25.0, 11.0)
 
     def __init__(
         self,

@@ -145,6 +145,7 @@ class MAML(FewShotMethod):
     stopped training first), ``feature_dim_`` (32)."""
 
     name = "MAML"
+    cost_hint = (60.0, 27.0)
     #: How the meta-gradient is computed (the benchmark writes it beside ``meta_curve_``).
     meta_gradient = "first-order"
 

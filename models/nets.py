@@ -375,7 +375,9 @@ class Schedule:
     def of(self, shot: int, way: int) -> Setting:
         """The setting for K = ``shot``, N = ``way``: the validated cell of the nearest shot
         (the smaller on ties), among its cells the one of the nearest way on a log scale
-        (the smaller on ties)."""
+        (the smaller on ties); a schedule of one setting gives it for every episode."""
+        if len(self.settings) == 1:
+            return self.settings[0]
         shots = sorted({c.shot for c in self.settings})
         k = min(shots, key=lambda v: (abs(v - shot), v))
         cells = [c for c in self.settings if c.shot == k]
@@ -422,7 +424,8 @@ def _curve(
 ) -> tuple[list[int], np.ndarray, bool]:
     """Step counts read and per-episode validation accuracies ``(marks, E)`` of one rate:
     from :data:`FIRST_MARK`, doubled until a doubling brings no gain in mean accuracy over
-    the best so far (or :data:`MAX_MARK`); all chunks of the batch trained in lockstep."""
+    the best so far (or :data:`MAX_MARK`), not counting the doublings before the best
+    reaches twice chance (2 / N); all chunks of the batch trained in lockstep."""
     gen = torch.Generator().manual_seed(seed)
     trainers = [
         (sl, EpisodeTrainer(net, x, batch.support[sl], batch.query[sl], lr=lr, generator=gen))
@@ -439,9 +442,11 @@ def _curve(
         acc = (pred == batch.query_labels).mean(axis=1)
         marks.append(mark)
         accs.append(acc)
-        if acc.mean() <= best:
+        # A doubling without gain ends the curve, once the networks have left chance (a
+        # slow rate's first marks can all sit at chance before the accuracy rises).
+        if acc.mean() <= best and best >= 2.0 / batch.n_way:
             return marks, np.stack(accs), True
-        best = float(acc.mean())
+        best = max(best, float(acc.mean()))
         if mark >= MAX_MARK:
             return marks, np.stack(accs), False
         mark *= 2
