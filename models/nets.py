@@ -341,6 +341,8 @@ FIRST_MARK = 5
 #: comes near (they level off within a few hundred steps), and the schedule records
 #: whether a curve reached it.
 MAX_MARK = FIRST_MARK * 2**11
+#: Doublings in a row without gain that end a validation curve still below twice chance.
+CHANCE_PATIENCE = 3
 #: Queries a validation cell's episodes hold in all (about): episodes per cell are
 #: ``ceil(VALIDATION_QUERIES / (way * queries per class))``, at least
 #: :data:`MIN_VALIDATION_EPISODES`, so every cell's accuracy is about equally precise.
@@ -424,8 +426,9 @@ def _curve(
 ) -> tuple[list[int], np.ndarray, bool]:
     """Step counts read and per-episode validation accuracies ``(marks, E)`` of one rate:
     from :data:`FIRST_MARK`, doubled until a doubling brings no gain in mean accuracy over
-    the best so far (or :data:`MAX_MARK`), not counting the doublings before the best
-    reaches twice chance (2 / N); all chunks of the batch trained in lockstep."""
+    the best so far (or :data:`MAX_MARK`); while the best is below twice chance (2 / N),
+    only :data:`CHANCE_PATIENCE` doublings in a row without gain end it. All chunks of
+    the batch are trained in lockstep."""
     gen = torch.Generator().manual_seed(seed)
     trainers = [
         (sl, EpisodeTrainer(net, x, batch.support[sl], batch.query[sl], lr=lr, generator=gen))
@@ -433,7 +436,7 @@ def _curve(
     ]
     marks: list[int] = []
     accs: list[np.ndarray] = []
-    mark, best = FIRST_MARK, -1.0
+    mark, best, flat = FIRST_MARK, -1.0, 0
     while True:
         pred = np.empty(batch.query.shape, dtype=np.int64)
         for sl, trainer in trainers:
@@ -442,9 +445,11 @@ def _curve(
         acc = (pred == batch.query_labels).mean(axis=1)
         marks.append(mark)
         accs.append(acc)
-        # A doubling without gain ends the curve, once the networks have left chance (a
-        # slow rate's first marks can all sit at chance before the accuracy rises).
-        if acc.mean() <= best and best >= 2.0 / batch.n_way:
+        # A doubling without gain ends the curve once the networks have left chance (a
+        # slow rate's first marks can sit at chance before the accuracy rises), and
+        # :data:`CHANCE_PATIENCE` of them in a row end it in any case.
+        flat = flat + 1 if acc.mean() <= best else 0
+        if flat and (best >= 2.0 / batch.n_way or flat >= CHANCE_PATIENCE):
             return marks, np.stack(accs), True
         best = max(best, float(acc.mean()))
         if mark >= MAX_MARK:

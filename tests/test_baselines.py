@@ -146,8 +146,11 @@ def test_raw_signal_baselines_choose_their_settings_on_training_data(easy):
                 # Doubling step counts from 5, until the first without a gain (or the bound).
                 assert c["steps"] == [5 * 2**i for i in range(len(c["steps"]))]
                 acc = c["accuracy"]
-                if c["plateaued"]:  # the last doubling brought no gain, after leaving chance
-                    assert acc[-1] <= max(acc[:-1]) and max(acc[:-1]) >= 2 / c["way"]
+                if c["plateaued"]:  # the last doubling brought no gain, after leaving
+                    # chance or as the third in a row
+                    assert acc[-1] <= max(acc[:-1])
+                    flat = len(acc) >= 4 and all(a <= max(acc[:-3]) for a in acc[-3:])
+                    assert max(acc[:-1]) >= 2 / c["way"] or flat
             # The setting: the fewest steps within the 95 % CI of the best accuracy.
             points = [
                 (a, ci, st, c["lr"])
