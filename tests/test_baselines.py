@@ -3,6 +3,8 @@ at chance on label-shuffled data, deterministic, no leaks, malformed episodes re
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -76,7 +78,7 @@ def test_every_paper_method_is_registered():
 def test_bad_settings_fail_at_construction_naming_the_setting(name, settings, arg):
     """A method checks its settings when built, with one line naming the method and the
     setting, not deep inside ``fit``; settings left None are chosen on training data."""
-    with pytest.raises(ValueError, match=f"^{name}: {arg} must be"):
+    with pytest.raises(ValueError, match=f"^{re.escape(name)}: {arg} must be"):
         make_method(name, **settings)
     if name in ("CNN", "BiLSTM", "MAML", "AFO-MLP-ML"):
         make_method(name, **{k: None for k in ("steps", "lr", "inner_lr") if k in settings})
