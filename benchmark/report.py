@@ -164,11 +164,9 @@ def _curve_table(records: Sequence[dict], protocol: str, condition: str | None) 
     return markdown_table(header, rows)
 
 
-def _drop_lines(
-    records: Sequence[dict], protocol: str, condition: str | None, *, paper_values: bool = True
-) -> list[str]:
+def _drop_lines(records: Sequence[dict], protocol: str, condition: str | None) -> list[str]:
     """AFOP-ML's 5-way drop below the closed-set curve and its 12-way lead over
-    AFO-MLP-ML, each beside the paper's figure when ``paper_values``."""
+    AFO-MLP-ML, each beside the paper's figure."""
     out = []
     ours5 = _one(
         records, protocol=protocol, condition=condition, fold=None, method="AFOP-ML", way=5
@@ -177,10 +175,7 @@ def _drop_lines(
     if ours5 and ref5:
         drop = 100 * (ref5["accuracy"] - ours5["accuracy"])
         ref = f" (paper: {paper.GENERALISATION_DROP_5WAY_PP[protocol]:.1f} pp)"
-        out.append(
-            f"- AFOP-ML 5-way-1-shot drop below the closed-set curve: {drop:.1f} pp"
-            f"{ref if paper_values else ''}."
-        )
+        out.append(f"- AFOP-ML 5-way-1-shot drop below the closed-set curve: {drop:.1f} pp{ref}.")
     a12 = _one(records, protocol=protocol, condition=condition, fold=None, method="AFOP-ML", way=12)
     b12 = _one(
         records, protocol=protocol, condition=condition, fold=None, method="AFO-MLP-ML", way=12
@@ -188,10 +183,7 @@ def _drop_lines(
     if a12 and b12:
         gap = 100 * (a12["accuracy"] - b12["accuracy"])
         ref = f" (paper: +{paper.GAP_TO_AFO_MLP_12WAY_PP[protocol]:.1f} pp)"
-        out.append(
-            f"- AFOP-ML minus AFO-MLP-ML at 12-way-1-shot: {gap:+.1f} pp"
-            f"{ref if paper_values else ''}."
-        )
+        out.append(f"- AFOP-ML minus AFO-MLP-ML at 12-way-1-shot: {gap:+.1f} pp{ref}.")
     return out
 
 
