@@ -344,10 +344,12 @@ MAX_MARK = FIRST_MARK * 2**11
 #: Doublings in a row without gain that end a validation curve still below twice chance.
 CHANCE_PATIENCE = 3
 #: Queries a validation cell's episodes hold in all (about): episodes per cell are
-#: ``ceil(VALIDATION_QUERIES / (way * queries per class))``, at least
-#: :data:`MIN_VALIDATION_EPISODES`, so every cell's accuracy is about equally precise.
+#: ``ceil(VALIDATION_QUERIES / (way * queries per class))``, within
+#: :data:`MIN_VALIDATION_EPISODES` .. :data:`MAX_VALIDATION_EPISODES`, so every cell's
+#: accuracy is about equally precise (the bounds matter for tiny training pools only).
 VALIDATION_QUERIES = 1000
 MIN_VALIDATION_EPISODES = 8
+MAX_VALIDATION_EPISODES = 100
 
 
 @dataclass(frozen=True)
@@ -495,7 +497,10 @@ def select_schedule(
     episodes serve every rate, and every rate's networks start from the same weights."""
     settings, curves = [], []
     for i, (shot, way, query) in enumerate(validation_cells(labels, shots, ways)):
-        episodes = max(MIN_VALIDATION_EPISODES, -(-VALIDATION_QUERIES // (way * query)))
+        episodes = min(
+            MAX_VALIDATION_EPISODES,
+            max(MIN_VALIDATION_EPISODES, -(-VALIDATION_QUERIES // (way * query))),
+        )
         batch = sample_episodes(
             labels,
             n_way=way,
