@@ -123,7 +123,7 @@ def test_deterministic_no_leak_and_rejects_malformed_support(name, easy):
         a.predict_episodes(sig, dup, batch.query)
 
 
-def test_raw_signal_baselines_choose_their_settings_on_training_data(easy):
+def test_raw_signal_baselines_choose_their_settings_on_training_data(easy, monkeypatch):
     """Without given values, CNN and BiLSTM pick a rate and a step count per validated shot
     and way on validation episodes of the training split, each curve read until a doubling
     brings no gain; MAML picks its inner rate and test steps and stops early on held-out
@@ -131,12 +131,13 @@ def test_raw_signal_baselines_choose_their_settings_on_training_data(easy):
     data, _ = easy
     train, _ = _split(data.label)
     sig, lab = data.signals[train], data.label[train]
+    monkeypatch.setattr(nets, "VALIDATION_QUERIES", 100)  # fewer episodes: a faster test
     for name in ("CNN", "BiLSTM"):
         m = make_method(name, seed=1).fit(sig, lab)
-        # 5 training classes of 3 trials: shots lowered to 2 (one query), ways to 5.
+        # 15 training classes of 3 trials: shots lowered to 2 (one query), 36 ways to 15.
         cells = nets.validation_cells(lab)
-        assert cells == [(1, 5, 2), (2, 5, 1)]
-        assert [(c.shot, c.way) for c in m.schedule_.settings] == [(1, 5), (2, 5)]
+        assert cells == [(k, n, 3 - k) for k in (1, 2) for n in (5, 12, 15)]
+        assert [(c.shot, c.way) for c in m.schedule_.settings] == [(k, n) for k, n, _ in cells]
         for setting in m.schedule_.settings:
             curves = [
                 c
