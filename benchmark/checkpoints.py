@@ -43,10 +43,11 @@ OWN_PACKAGES = frozenset({"shapes", "synth", "models", "benchmark", "tactile_syn
 
 #: Version of what a checkpoint's records hold (AFOP-ML's selection records with their
 #: selected features, a dscan record per AFOP-ML fit, the reference curve on the
-#: closed-set fit, the within-condition summary of protocols testing force/speed
-#: conditions), part of the key: raise it when that changes, so that a resumed run
-#: recomputes checkpoints that lack what it reads.
-LAYOUT: int = 3
+#: closed-set fit, the across-condition summaries of protocols testing force/speed
+#: conditions per reading, the perturbation protocol's enrolment reading), part of the
+#: key: raise it when that changes, so that a resumed run recomputes checkpoints that
+#: lack what it reads.
+LAYOUT: int = 4
 
 
 def fingerprint(data: Dataset) -> str:
@@ -59,16 +60,20 @@ def fingerprint(data: Dataset) -> str:
     return h.hexdigest()[:16]
 
 
-def method_settings(methods: Sequence[str]) -> dict[str, dict[str, Any]]:
+def method_settings(
+    methods: Sequence[str], options: Mapping[str, Mapping[str, Any]] | None = None
+) -> dict[str, dict[str, Any]]:
     """What each method is built with: the public scalar attributes of a new instance
-    (hyper-parameters, tuned defaults included), for the checkpoint key, so that a run
-    after a retuning or a change to a plug-in's settings does not reuse results made with
-    other ones. Values that are not JSON scalars are keyed by their ``repr``."""
+    built with its ``options`` (hyper-parameters, tuned defaults included), for the
+    checkpoint key, so that a run after a retuning or a change to a plug-in's settings does
+    not reuse results made with other ones. Values that are not JSON scalars are keyed by
+    their ``repr``."""
     from models.registry import make_method
 
+    options = options or {}
     out: dict[str, dict[str, Any]] = {}
     for name in methods:
-        attrs = vars(make_method(name, seed=0))
+        attrs = vars(make_method(name, seed=0, **options.get(name, {})))
         out[name] = {
             k: v if isinstance(v, (bool, int, float, str, type(None))) else repr(v)
             for k, v in sorted(attrs.items())
@@ -76,6 +81,19 @@ def method_settings(methods: Sequence[str]) -> dict[str, dict[str, Any]]:
             and not k.endswith("_")  # fitted state (none yet)
             and isinstance(v, (bool, int, float, str, type(None), tuple))
         }
+    return out
+
+
+def option_files(options: Mapping[str, Mapping[str, Any]] | None) -> dict[str, str]:
+    """``"METHOD:NAME"`` -> SHA-256 (16 hex chars) of the file a method option names (a
+    weights file), for the checkpoint key: a run with another file's contents at the same
+    path recomputes."""
+    out = {}
+    for method, params in (options or {}).items():
+        for name, value in params.items():
+            if isinstance(value, str) and value and os.path.isfile(value):
+                digest = hashlib.sha256(Path(value).read_bytes()).hexdigest()[:16]
+                out[f"{method}:{name}"] = digest
     return out
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import shlex
 import sys
+from collections.abc import Sequence
 
 from tactile_synth.interrupts import terminate_as_interrupt
 from tactile_synth.threads import HELP as THREADS_HELP
@@ -20,25 +21,38 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 METHODS_HELP = (
-    "methods to evaluate: built-in names ({builtin}), names of installed plug-ins "
-    "(entry point group tactile_synth.methods), or module:Class / path/to/file.py:Class "
-    "of a FewShotMethod subclass (docs/methods.md); default: {default}"
+    "methods to evaluate: the paper's methods ({builtin}), the variants beyond the paper "
+    "({variants}), names of installed plug-ins (entry point group tactile_synth.methods), "
+    "or module:Class / path/to/file.py:Class of a FewShotMethod subclass "
+    "(docs/methods.md); default: {default}"
+)
+OPTION_HELP = (
+    "METHOD:NAME=VALUE: build METHOD with its constructor option NAME set to VALUE (a "
+    "JSON literal such as 10, 1e-3, true, or else text such as a path), e.g. "
+    "CWT-ResNet-ML:weights=resnet18.pth to start CWT-ResNet-ML from a torchvision "
+    "ResNet-18 state dict; repeatable (docs/methods.md)"
 )
 
 
 def _methods_help(default: str) -> str:
-    from models.registry import METHOD_NAMES
+    from models.registry import METHOD_NAMES, VARIANT_NAMES
 
-    return METHODS_HELP.format(builtin=", ".join(METHOD_NAMES), default=default)
+    return METHODS_HELP.format(
+        builtin=", ".join(METHOD_NAMES), variants=", ".join(VARIANT_NAMES), default=default
+    )
 
 
-def _check_methods_arg(methods: list[str] | None) -> None:
-    """Fail fast, naming --methods, on a method that cannot be found or is no
-    FewShotMethod (before any dataset is read or generated)."""
-    if methods is not None:
-        from models.registry import check_methods
+def _check_methods_arg(
+    methods: list[str] | None, options: list[str] | None, default: Sequence[str]
+) -> dict[str, dict[str, object]]:
+    """Fail fast, naming --methods or --method-option, on a method that cannot be found
+    or is no FewShotMethod, or an option it does not take (before any dataset is read or
+    generated); returns the checked options. ``default``: the methods run without
+    --methods."""
+    from models.registry import check_methods, options_from_args
 
-        check_methods(methods, arg="--methods")
+    chosen = default if methods is None else check_methods(methods, arg="--methods")
+    return options_from_args(options, chosen)
 
 
 def _register_benchmark(subparsers: argparse._SubParsersAction) -> None:
@@ -71,7 +85,14 @@ def _register_benchmark(subparsers: argparse._SubParsersAction) -> None:
         nargs="+",
         default=None,
         metavar="NAME",
-        help=_methods_help("the seven built-in methods"),
+        help=_methods_help("the paper's seven methods, then the variants"),
+    )
+    p.add_argument(
+        "--method-option",
+        action="append",
+        default=None,
+        metavar="METHOD:NAME=VALUE",
+        help=OPTION_HELP,
     )
     p.add_argument("--episodes", type=int_arg, default=500, help="episodes per cell (default 500)")
     p.add_argument(
@@ -103,9 +124,11 @@ def _again(args: argparse.Namespace, fallback: list[str]) -> str:
 
 
 def _benchmark(args: argparse.Namespace) -> int:
+    from models.registry import DEFAULT_METHODS
+
     from .single import benchmark_protocol
 
-    _check_methods_arg(args.methods)
+    options = _check_methods_arg(args.methods, args.method_option, DEFAULT_METHODS)
     try:
         with terminate_as_interrupt():
             benchmark_protocol(
@@ -118,6 +141,7 @@ def _benchmark(args: argparse.Namespace) -> int:
                 seed=args.seed,
                 overwrite=args.overwrite,
                 workers=args.workers,
+                options=options,
             )
     except KeyboardInterrupt:
         again = _again(args, ["benchmark", args.protocol, "--out", str(args.out)])
@@ -160,7 +184,16 @@ def _register_run(subparsers: argparse._SubParsersAction) -> None:
         nargs="+",
         default=None,
         metavar="NAME",
-        help=_methods_help("all seven, or three with --quick; must include AFOP-ML"),
+        help=_methods_help(
+            "the paper's seven, then the variants, or three with --quick; must include AFOP-ML"
+        ),
+    )
+    p.add_argument(
+        "--method-option",
+        action="append",
+        default=None,
+        metavar="METHOD:NAME=VALUE",
+        help=OPTION_HELP,
     )
     p.add_argument(
         "--overwrite",
@@ -185,9 +218,13 @@ def _register_run(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from models.registry import DEFAULT_METHODS
+
+    from .plan import QUICK_METHODS
     from .run import run
 
-    _check_methods_arg(args.methods)
+    default = QUICK_METHODS if args.quick else DEFAULT_METHODS
+    options = _check_methods_arg(args.methods, args.method_option, default)
     try:
         with terminate_as_interrupt():
             run(
@@ -200,6 +237,7 @@ def _run(args: argparse.Namespace) -> int:
                 overwrite=args.overwrite,
                 data=args.data,
                 perturbed=args.perturbed,
+                options=options,
             )
     except KeyboardInterrupt:
         again = _again(args, ["run", "--out", str(args.out)])

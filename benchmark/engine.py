@@ -22,6 +22,14 @@ classes that can fill the cell (``shot + query`` trials); a cell no set of test 
 can fill is skipped. Consecutive tasks with the same ``fit_key`` share one fit (the
 perturbation protocol fits once and tests on every force/speed condition).
 
+Enrolment: a task may carry a separate ``support`` pool (:attr:`Task.support`). Its
+episodes then draw their support examples from that pool and their queries from the
+test pool, classes matched by name across the two datasets
+(:func:`models.episodes.sample_split_episodes`): a class is enrolled in one setting
+and recognised in another ("enrolled at nominal, recognised under perturbation"). A
+class needs ``shot`` trials in the support pool and the cell's queries in the test pool;
+the method sees one pool holding the episode trials of both.
+
 This module imports no protocol: protocols import it.
 """
 
@@ -31,7 +39,7 @@ import json
 import time
 import zlib
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Hashable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Hashable, Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from typing import Any, ClassVar, NamedTuple
@@ -42,13 +50,14 @@ from tqdm.auto import tqdm
 
 from models import registry
 from models.base import FewShotMethod
+from models.registry import MethodOptions
 from models.stats import ci95
 from synth import Dataset
 from synth.presets import parse_condition
 from tactile_synth.validation import check_int
 
 from .budget import EpisodeBudget
-from .episodes import sample_episodes
+from .episodes import EpisodeBatch, sample_episodes, sample_split_episodes
 from .evaluate import evaluate
 from .results import (
     AccuracyRecord,
@@ -78,9 +87,10 @@ def check_methods(methods: Sequence[str]) -> tuple[str, ...]:
     return registry.check_methods(methods, arg="method")
 
 
-def make_method(name: str, seed: int = 0) -> FewShotMethod:
-    """A new, unfitted method ``name`` built with ``seed`` (:func:`models.registry.make_method`)."""
-    return registry.make_method(name, seed=seed)
+def make_method(name: str, seed: int = 0, **options: object) -> FewShotMethod:
+    """A new, unfitted method ``name`` built with ``seed`` and its constructor ``options``
+    (:func:`models.registry.make_method`)."""
+    return registry.make_method(name, seed=seed, **options)
 
 
 @contextmanager
@@ -178,7 +188,9 @@ class Task:
     episodes: episodes per cell (per method); fit_seed: the seed each method is built
     with; fit_key: consecutive tasks with the same non-None key share the first one's fit;
     methods: the methods of this task whatever the run requests (None: the requested
-    ones); fit_records: whether its fits give selection / meta-curve records.
+    ones); fit_records: whether its fits give selection / meta-curve records; support:
+    the enrolment pool the episodes' support examples are drawn from (queries from
+    ``test``, classes matched by name; None: support and queries both from ``test``).
     """
 
     protocol: str
@@ -192,6 +204,7 @@ class Task:
     fit_key: Hashable | None = None
     methods: tuple[str, ...] | None = None
     fit_records: bool = True
+    support: Pool | None = None
 
     @property
     def name(self) -> str:
@@ -454,14 +467,16 @@ def run_fit(
     *,
     bar: tqdm | None = None,
     on_fit: Callable[[Task, str, FewShotMethod], None] | None = None,
+    options: Mapping[str, object] | None = None,
 ) -> FitResult:
     """Fit ``name`` once on the group's fit pool and evaluate every cell of the tasks of
-    the shares that ask for ``name`` (the other shares get empty results)."""
+    the shares that ask for ``name`` (the other shares get empty results); ``options``:
+    the method's constructor options (``--method-option``)."""
     first = group.first
     fit = first.fit
     pool = features.of(fit.data)[fit.index]
     with plugin_stage(name, "fit"):
-        method = make_method(name, seed=first.fit_seed)
+        method = make_method(name, seed=first.fit_seed, **(options or {}))
         t0 = time.perf_counter()
         method.fit(fit.data.signals[fit.index], fit.labels, features=pool)
         pretrain_s = time.perf_counter() - t0
@@ -481,6 +496,20 @@ def run_fit(
     return FitResult(out)
 
 
+def job_cost(group: FitGroup, name: str) -> float:
+    """Rough CPU seconds of fitting ``name`` on ``group`` and evaluating its cells: the
+    method class's ``cost_hint`` (fit seconds, seconds per 1000 cell-episodes) applied to
+    the group's episodes; only used to order the queue of fits."""
+    fit_s, eval_s = getattr(registry.method_class(name), "cost_hint", (1.0, 1.0))
+    episodes = sum(
+        len(task.grid) * task.episodes.of(name)
+        for share in group.shares
+        if name in share.methods
+        for task in share.tasks
+    )
+    return float(fit_s) + float(eval_s) * episodes / 1000
+
+
 def run_task_sets(
     task_sets: Sequence[Sequence[Task]],
     methods: Sequence[str],
@@ -492,6 +521,7 @@ def run_task_sets(
     threads: int | None = None,
     on_done: Callable[[int, TaskResults], None] | None = None,
     fit_cache: FitCache | None = None,
+    options: MethodOptions | None = None,
 ) -> SetResults:
     """Run several sets of tasks (a protocol's each) through one queue of fits: every
     method fitted once per fit group (:func:`plan_fits`), every cell of every task
@@ -505,9 +535,11 @@ def run_task_sets(
     on_fit(task, method name, fitted): called after each fit (one process only).
     fit_cache: each fit's results are saved there as soon as it finishes, and a fit
     found there is not run again (nor passed to ``on_fit``): an interrupted run loses
-    only the fits that were running.
+    only the fits that were running. options: constructor options per method name
+    (``--method-option``; :func:`models.registry.check_method_options` checks them).
     """
     check_int("workers", workers, minimum=1)
+    options = dict(options or {})
     features = features or Features()
     groups, order = plan_fits(task_sets, methods)
     jobs = [(g, name) for g, group in enumerate(groups) for name in group.methods]
@@ -570,17 +602,24 @@ def run_task_sets(
         finished(job, result)
 
     processes = fit_processes(workers, len(todo)) if todo else 0
+    if processes > 1:
+        # The costliest jobs first, so that the last ones to finish are short (a worker
+        # idles once the queue is empty); the order changes no result.
+        todo.sort(key=lambda job: -job_cost(groups[job[0]], job[1]))
     try:
         if processes <= 1:
             for g, name in todo:
-                keep((g, name), run_fit(groups[g], name, features, bar=bar, on_fit=on_fit))
+                result = run_fit(
+                    groups[g], name, features, bar=bar, on_fit=on_fit, options=options.get(name)
+                )
+                keep((g, name), result)
         else:
             if on_fit is not None:
                 raise ValueError("on_fit needs the fits in this process: use workers=1")
             from .workers import run_fits
 
             for (g, name), result in run_fits(
-                groups, todo, features, workers=processes, threads=threads
+                groups, todo, features, workers=processes, threads=threads, options=options
             ):
                 keep((g, name), result)
                 bar.set_postfix_str(f"{name} {groups[g].first.protocol} {groups[g].first.name}")
@@ -599,6 +638,7 @@ def run_tasks(
     on_fit: Callable[[Task, str, FewShotMethod], None] | None = None,
     workers: int = 1,
     threads: int | None = None,
+    options: MethodOptions | None = None,
 ) -> TaskResults:
     """Fit every method once per task (or fit group) and evaluate every cell of its grid
     (:func:`run_task_sets` for one set of tasks).
@@ -614,7 +654,73 @@ def run_tasks(
         on_fit=on_fit,
         workers=workers,
         threads=threads,
+        options=options,
     ).sets[0]
+
+
+class CellEpisodes(NamedTuple):
+    """The episodes of one cell and the pool they index: its trials' signals, labels and
+    feature rows; ``query`` is the queries per class."""
+
+    signals: np.ndarray
+    features: np.ndarray
+    batch: EpisodeBatch
+    query: int
+
+
+def _test_episodes(
+    task: Task, cell: Cell, episodes: int, features: Features
+) -> CellEpisodes | None:
+    """The cell's episodes on the test pool (None when no set of classes can fill it)."""
+    test = task.test
+    labels = test.labels
+    q, rows = _cell_rows(labels, cell)
+    if q < 1:
+        return None
+    index = test.index if rows is None else test.index[rows]
+    lab = labels if rows is None else labels[rows]
+    batch = sample_episodes(
+        lab, n_way=cell.way, k_shot=cell.shot, n_query=q, episodes=episodes, seed=cell.seed
+    )
+    return CellEpisodes(test.data.signals[index], features.of(test.data)[index], batch, q)
+
+
+def _enrolment_episodes(
+    task: Task, cell: Cell, episodes: int, features: Features
+) -> CellEpisodes | None:
+    """The cell's episodes with their support from ``task.support`` and their queries
+    from ``task.test`` (classes matched by name): indices into one pool that holds the
+    eligible classes' support-pool trials, then their test-pool trials. None when fewer
+    than ``way`` classes have ``shot`` support-pool trials and a query."""
+    sup, test = task.support, task.test
+    assert sup is not None
+    names_s = np.asarray(sup.data.classes)[sup.labels]
+    names_t = np.asarray(test.data.classes)[test.labels]
+    shared = np.intersect1d(names_s, names_t)
+    classes_s, counts_s = np.unique(names_s, return_counts=True)
+    enrolled = np.intersect1d(shared, classes_s[counts_s >= cell.shot])
+    in_t = np.isin(names_t, enrolled)
+    q = n_query_for(names_t[in_t], cell.way, 0) if in_t.any() else 0
+    if q < 1:
+        return None
+    classes_t, counts_t = np.unique(names_t[in_t], return_counts=True)
+    usable = classes_t[counts_t >= q]
+    rows_s = np.flatnonzero(np.isin(names_s, usable))
+    rows_t = np.flatnonzero(np.isin(names_t, usable))
+    ids = {name: i for i, name in enumerate(usable)}
+    batch = sample_split_episodes(
+        np.array([ids[n] for n in names_s[rows_s]]),
+        np.array([ids[n] for n in names_t[rows_t]]),
+        n_way=cell.way,
+        k_shot=cell.shot,
+        n_query=q,
+        episodes=episodes,
+        seed=cell.seed,
+    )
+    index_s, index_t = sup.index[rows_s], test.index[rows_t]
+    signals = np.concatenate([sup.data.signals[index_s], test.data.signals[index_t]])
+    feats = np.concatenate([features.of(sup.data)[index_s], features.of(test.data)[index_t]])
+    return CellEpisodes(signals, feats, batch, q)
 
 
 def _evaluate_task(
@@ -625,26 +731,18 @@ def _evaluate_task(
     features: Features,
     bar: tqdm | None,
 ) -> list[Scored]:
-    test = task.test
-    signals = test.data.signals[test.index]
-    labels = test.labels
-    feats = features.of(test.data)[test.index]
     n_ep = task.episodes.of(name)
+    draw = _test_episodes if task.support is None else _enrolment_episodes
     out: list[Scored] = []
     for cell in task.grid:
         if bar is not None:
             bar.set_postfix_str(f"{name} {task.name} {cell.shot}-shot {cell.way}-way")
-        q, rows = _cell_rows(labels, cell)
-        if q < 1:
+        cell_episodes = draw(task, cell, n_ep, features)
+        if cell_episodes is None:
             if bar is not None:
                 bar.update(1)
             continue
-        sig, lab, f = (
-            (signals, labels, feats) if rows is None else (signals[rows], labels[rows], feats[rows])
-        )
-        batch = sample_episodes(
-            lab, n_way=cell.way, k_shot=cell.shot, n_query=q, episodes=n_ep, seed=cell.seed
-        )
+        sig, f, batch, q = cell_episodes
         with plugin_stage(name, "predict"):
             result = evaluate(
                 method, sig, batch, features=f, latency_episodes=cell.latency_episodes
@@ -681,19 +779,39 @@ def pool_folds(scored: Iterable[Scored]) -> list[AccuracyRecord]:
 
 #: ``condition`` of the across-condition summary records (:func:`pool_conditions`).
 WITHIN_CONDITION = "within-condition"
+#: Separates a reading's name from a force/speed condition in a record's ``condition``
+#: (``"enrolled:force=1.4N,speed=6mm/s"``: the ``enrolled`` reading of that condition).
+READING_SEPARATOR = ":"
+
+
+def condition_reading(condition: str | None) -> tuple[str | None, tuple[float, float] | None]:
+    """``(reading, (force_n, speed_mm_s))`` of a record's ``condition``: ``(None, (1.4,
+    6.0))`` for ``"force=1.4N,speed=6mm/s"``, ``("enrolled", (1.4, 6.0))`` for
+    ``"enrolled:force=1.4N,speed=6mm/s"``; ``(None, None)`` for any other condition."""
+    text = condition or ""
+    reading, sep, rest = text.rpartition(READING_SEPARATOR)
+    fs = parse_condition(rest if sep else text)
+    if fs is None:
+        return None, None
+    return (reading or None) if sep else None, fs
 
 
 def pool_conditions(scored: Iterable[Scored]) -> list[AccuracyRecord]:
-    """Across-condition summary records (``condition=WITHIN_CONDITION``), one per
-    (protocol, fold, method, way, shot): the episodes of every force/speed condition
-    together, each episode's support and queries from one condition, summarised as
+    """Across-condition summary records, one per (protocol, fold, method, way, shot) and
+    reading: the episodes of every force/speed condition together, summarised as
     :func:`pool_folds` summarises folds (with equal budgets, the mean of the conditions'
-    accuracies)."""
+    accuracies). Plain per-condition records (each episode within one condition) give
+    ``condition=WITHIN_CONDITION``; records of a named reading (``"enrolled:<condition>"``,
+    :func:`condition_reading`) give ``condition=<reading>``."""
     groups: dict[tuple, list[Scored]] = {}
     for s in scored:
         r = s.record
-        groups.setdefault((r.protocol, r.fold, r.method, r.way, r.shot), []).append(s)
-    return [_pooled(ss, condition=WITHIN_CONDITION) for ss in groups.values()]
+        reading = condition_reading(r.condition)[0]
+        groups.setdefault((r.protocol, r.fold, r.method, r.way, r.shot, reading), []).append(s)
+    return [
+        _pooled(ss, condition=WITHIN_CONDITION if key[-1] is None else key[-1])
+        for key, ss in groups.items()
+    ]
 
 
 def _pooled(ss: Sequence[Scored], **labels: object) -> AccuracyRecord:
@@ -775,15 +893,15 @@ def protocol_tasks(
 def protocol_records(tasks: Sequence[Task], done: TaskResults) -> list[Record]:
     """The records of a protocol's tasks: accuracy per (task, method, cell), across-fold
     pooled accuracy when the tasks have folds (:func:`pool_folds`), across-condition
-    accuracy when they test force/speed conditions (:func:`pool_conditions`; with one
-    condition, the same figures as its own records), and the fits' records."""
+    accuracy when they test force/speed conditions, per reading (:func:`pool_conditions`;
+    with one condition, the same figures as its own records), and the fits' records."""
     records: list[Record] = [s.record for s in done.scored]
     if any(t.fold is not None for t in tasks):
         records += pool_folds(s for s in done.scored if s.record.fold is not None)
     by_condition = [
         s
         for s in done.scored
-        if s.record.fold is None and parse_condition(s.record.condition) is not None
+        if s.record.fold is None and condition_reading(s.record.condition)[1] is not None
     ]
     if by_condition:
         records += pool_conditions(by_condition)
@@ -803,9 +921,10 @@ def run_protocol(
     on_fit: Callable[[Task, str, FewShotMethod], None] | None = None,
     workers: int = 1,
     threads: int | None = None,
+    options: MethodOptions | None = None,
 ) -> list[Record]:
-    """All records of ``protocol`` (:func:`protocol_records`); ``workers`` and
-    ``threads`` as in :func:`run_task_sets`."""
+    """All records of ``protocol`` (:func:`protocol_records`); ``workers``, ``threads``
+    and ``options`` as in :func:`run_task_sets`."""
     methods = check_methods(methods)
     tasks = protocol_tasks(protocol, data, perturbed, episodes=episodes, seed=seed)
     done = run_tasks(
@@ -816,5 +935,6 @@ def run_protocol(
         on_fit=on_fit,
         workers=workers,
         threads=threads,
+        options=options,
     )
     return protocol_records(tasks, done)

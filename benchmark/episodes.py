@@ -7,6 +7,6 @@ this module is the benchmark's name for it.
 
 from __future__ import annotations
 
-from models.episodes import EpisodeBatch, sample_episodes
+from models.episodes import EpisodeBatch, sample_episodes, sample_split_episodes
 
-__all__ = ["EpisodeBatch", "sample_episodes"]
+__all__ = ["EpisodeBatch", "sample_episodes", "sample_split_episodes"]

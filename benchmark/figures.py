@@ -21,20 +21,24 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from models.registry import paper_first
 from shapes import SHAPE_NAMES
 from synth import CHANNELS, MATERIAL_NAMES, SAMPLE_RATE_HZ, Dataset
 from synth.presets import NOMINAL_FORCE_N, NOMINAL_SPEED_MM_S
 
-from .engine import WITHIN_CONDITION
+from .engine import WITHIN_CONDITION, condition_reading
 from .interpret import Artefacts
+from .protocols.perturbation import ENROLLED, POOLED
 from .results import select
-from .splits import parse_condition
 
-#: Panel order and titles of Fig. 5.
+#: Panel order and titles of Fig. 5; the perturbation protocol's readings each have their
+#: own panel, side by side, none promoted.
 GENERALISATION_PANELS: tuple[tuple[str, str | None, str], ...] = (
     ("cross-shape", None, "(a) Cross-shape"),
     ("cross-material", None, "(b) Cross-material"),
-    ("perturbation", WITHIN_CONDITION, "(c) Force-speed perturbation (within condition)"),
+    ("perturbation", WITHIN_CONDITION, "(c) Force-speed: within one condition"),
+    ("perturbation", POOLED, "(d) Force-speed: all conditions pooled"),
+    ("perturbation", ENROLLED, "(e) Force-speed: enrolled at nominal"),
 )
 #: Bar order of Fig. 6 (the paper's: Shape, Closed-set, Force&Speed, Material).
 SELECTION_ORDER: tuple[tuple[str, str], ...] = (
@@ -51,6 +55,7 @@ METHOD_COLOURS: dict[str, str] = {
     "CWT-ResNet-ML": "tab:purple",
     "CNN": "tab:brown",
     "BiLSTM": "tab:pink",
+    "AFO-MLP-ML+meta": "tab:olive",
 }
 #: One marker per shape in SHAPE_NAMES order, resembling the outline where one exists.
 SHAPE_MARKERS: tuple[str, ...] = ("o", "8", "P", "h", "X", "<", "p", "*", "D", "s", ">", "^")
@@ -121,14 +126,23 @@ def dscan_curve(dscan: Mapping[str, Sequence[float]], chosen_d: int, path: str |
     return save_figure(fig, path)
 
 
+def _ordered_methods(records: Sequence[dict]) -> list[str]:
+    paper, beyond = paper_first([r["method"] for r in select(records, "accuracy")])
+    return [*paper, *beyond]
+
+
 def generalisation_curves(records: Sequence[dict], path: str | Path) -> Path:
     """Fig. 5: 1-shot accuracy vs N-way per protocol, one line + 95 % CI band per method,
     the closed-set AFOP-ML curve (``protocol="closed-set", condition="reference"``) dashed.
-    Uses the across-fold records (``fold=None``)."""
-    methods = list(dict.fromkeys(r["method"] for r in select(records, "accuracy")))
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.2), sharey=True)
+    Uses the across-fold records (``fold=None``). The perturbation protocol has one panel
+    per reading (within one condition, pooled, enrolled at nominal); the paper's methods
+    are drawn with solid lines, the methods beyond the paper dotted."""
+    methods = _ordered_methods(records)
+    _, beyond = paper_first(methods)
+    fig, grid = plt.subplots(2, 3, figsize=(15, 8.4), sharey=True)
+    axes = grid.ravel()
     ref = _curve(records, protocol="closed-set", condition="reference", shot=1)
-    for ax, (protocol, condition, title) in zip(axes, GENERALISATION_PANELS, strict=True):
+    for ax, (protocol, condition, title) in zip(axes, GENERALISATION_PANELS, strict=False):
         for m in methods:
             way, acc, ci = _curve(
                 records, protocol=protocol, condition=condition, method=m, fold=None, shot=1
@@ -136,7 +150,8 @@ def generalisation_curves(records: Sequence[dict], path: str | Path) -> Path:
             if way.size == 0:
                 continue
             c = METHOD_COLOURS.get(m)
-            ax.plot(way, acc, marker="o", ms=3, lw=1.4, color=c, label=m)
+            style = ":" if m in beyond else "-"
+            ax.plot(way, acc, marker="o", ms=3, lw=1.4, ls=style, color=c, label=m)
             ax.fill_between(way, acc - ci, acc + ci, color=c, alpha=0.2)
         if ref[0].size:
             ax.plot(ref[0], ref[1], "k--", lw=1.3, label="closed-set AFOP-ML")
@@ -144,21 +159,20 @@ def generalisation_curves(records: Sequence[dict], path: str | Path) -> Path:
         ax.set_xlabel("N-way (1-shot)")
         ax.set_xticks(range(2, 13))
         ax.grid(alpha=0.3)
-    axes[0].set_ylabel("accuracy (%)")
-    handles, labels = axes[0].get_legend_handles_labels()
-    for ax in axes[1:]:
+    for ax in (axes[0], axes[3]):
+        ax.set_ylabel("accuracy (%)")
+    handles, labels = [], []
+    for ax in axes[: len(GENERALISATION_PANELS)]:
         for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
             if lab not in labels:
                 handles.append(h)
                 labels.append(lab)
-    fig.legend(
-        handles,
-        labels,
-        loc="lower center",
-        ncol=min(len(labels), 8),
-        fontsize=8,
-        bbox_to_anchor=(0.5, -0.08),
+    legend_ax = axes[-1]
+    legend_ax.axis("off")
+    legend_ax.legend(
+        handles, labels, loc="center", fontsize=9, title="solid: paper; dotted: beyond"
     )
+    fig.tight_layout()
     return save_figure(fig, path)
 
 
@@ -169,9 +183,12 @@ def perturbation_heatmap(
     methods: Sequence[str] = ("AFOP-ML",),
     way: int = 5,
     nominal_method: str = "AFOP-ML",
+    reading: str | None = None,
 ) -> Path:
     """5-way-1-shot accuracy over the force x speed grid, one panel per method (every
-    method of ``methods`` that has perturbation records, :data:`HEATMAP_COLUMNS` per row).
+    method of ``methods`` that has perturbation records, :data:`HEATMAP_COLUMNS` per row),
+    of one reading: ``None`` within one condition (``condition="force=..."``), or a named
+    reading's per-condition records (``"enrolled"``: ``condition="enrolled:force=..."``).
 
     The perturbation dataset leaves out the nominal condition; where the grid has a hole
     at 1 N / 10 mm/s, the AFOP-ML panel shows the closed-set reference (nominal test half,
@@ -185,8 +202,8 @@ def perturbation_heatmap(
     for m in methods:
         cells = {}
         for r in select(records, "accuracy", protocol="perturbation", method=m, way=way, shot=1):
-            fs = parse_condition(r["condition"])
-            if fs is not None:
+            of, fs = condition_reading(r["condition"])
+            if fs is not None and of == reading:
                 cells[fs] = r
         if cells:
             panels.append((m, cells))
@@ -236,7 +253,8 @@ def perturbation_heatmap(
         ax.set_yticks(range(len(forces)), [f"{f:g}" for f in forces])
         ax.set_xlabel("sliding speed (mm/s)")
         ax.set_ylabel("normal force (N)")
-        ax.set_title(f"{m}: {way}-way-1-shot accuracy (%)", fontsize=9)
+        where = "within condition" if reading is None else f"{reading} at nominal"
+        ax.set_title(f"{m}: {way}-way-1-shot accuracy (%), {where}", fontsize=9)
         fig.colorbar(im, ax=ax, fraction=0.046)
     return save_figure(fig, path)
 
@@ -331,12 +349,15 @@ def tsne_scatter(
         loc="center left",
         bbox_to_anchor=(1.01, 0.5),
     )
-    ax.set_title(
-        f"t-SNE of closed-set top-{d} features\n"
-        f"1-NN={indicators['nn1_shape_accuracy']:.3f}  mix-sil={indicators['mix_sil']:.3f}  "
-        f"DGI={indicators['dgi']:.3f}",
-        fontsize=10,
-    )
+    lines = [f"t-SNE of closed-set top-{d} features"]
+    for prefix, where in (("", f"top-{d} space"), ("embedding_", "2-D embedding")):
+        if f"{prefix}nn1_shape_accuracy" in indicators:
+            lines.append(
+                f"{where}: 1-NN={indicators[prefix + 'nn1_shape_accuracy']:.3f}  "
+                f"mix-sil={indicators[prefix + 'mix_sil']:.3f}  "
+                f"DGI={indicators[prefix + 'dgi']:.3f}"
+            )
+    ax.set_title("\n".join(lines), fontsize=10)
     ax.set_xticks([])
     ax.set_yticks([])
     return save_figure(fig, path)
@@ -366,11 +387,17 @@ def example_signals(data: Dataset, path: str | Path) -> Path:
     )
 
 
+#: The perturbation heat maps: figure key and reading (None: within one condition).
+HEATMAPS: tuple[tuple[str, str | None], ...] = (
+    ("perturbation_heatmap", None),
+    ("perturbation_heatmap_enrolled", ENROLLED),
+)
 #: Figure key -> file name (fixed, so reports and READMEs can link them).
 FIGURE_FILES: dict[str, str] = {
     "dscan": "dscan.png",
     "generalisation": "generalisation.png",
     "perturbation_heatmap": "perturbation_heatmap.png",
+    "perturbation_heatmap_enrolled": "perturbation_heatmap_enrolled.png",
     "selection": "selection.png",
     "tsne": "tsne.png",
     "signals": "example_signals.png",
@@ -387,14 +414,21 @@ def draw_figures(
         made["dscan"] = FIGURE_FILES["dscan"]
     generalisation_curves(records, out / FIGURE_FILES["generalisation"])
     made["generalisation"] = FIGURE_FILES["generalisation"]
-    pert_methods = list(
-        dict.fromkeys(r["method"] for r in select(records, "accuracy", protocol="perturbation"))
-    )
-    if pert_methods:
-        perturbation_heatmap(
-            records, out / FIGURE_FILES["perturbation_heatmap"], methods=pert_methods
-        )
-        made["perturbation_heatmap"] = FIGURE_FILES["perturbation_heatmap"]
+    pert = select(records, "accuracy", protocol="perturbation")
+    pert_methods = _ordered_methods(pert)
+    for key, reading in (
+        ("perturbation_heatmap", None),
+        ("perturbation_heatmap_enrolled", ENROLLED),
+    ):
+        if any(
+            condition_reading(r["condition"])[0] == reading
+            and condition_reading(r["condition"])[1] is not None
+            for r in pert
+        ):
+            perturbation_heatmap(
+                records, out / FIGURE_FILES[key], methods=pert_methods, reading=reading
+            )
+            made[key] = FIGURE_FILES[key]
     selection_bars(records, out / FIGURE_FILES["selection"])
     made["selection"] = FIGURE_FILES["selection"]
     tsne_scatter(
@@ -428,27 +462,33 @@ def figure_notes(records: Sequence[Mapping[str, Any]], art: Artefacts, seed: int
             f"training half, 95 % CI band; chosen D = {art.chosen_d}."
         )
     parts = []
-    for protocol, cond in (
-        ("cross-shape", None),
-        ("cross-material", None),
-        ("perturbation", WITHIN_CONDITION),
-    ):
+    for protocol, cond, _ in GENERALISATION_PANELS:
         a2 = _one(records, protocol=protocol, condition=cond, fold=None, method="AFOP-ML", way=2)
         a12 = _one(records, protocol=protocol, condition=cond, fold=None, method="AFOP-ML", way=12)
         if a2 and a12:
+            label = protocol if cond is None else f"{protocol} ({cond})"
             parts.append(
-                f"{protocol}: AFOP-ML {100 * a2['accuracy']:.1f} % (2-way) → "
+                f"{label}: AFOP-ML {100 * a2['accuracy']:.1f} % (2-way) → "
                 f"{100 * a12['accuracy']:.1f} % (12-way), episodes per way "
                 f"[{_episodes_of(records, protocol=protocol, condition=cond, fold=None, way=5)}]"
             )
     notes["generalisation"] = (
-        "1-shot accuracy vs N (2..12) with 95 % CI bands per method; the dashed black line is "
-        f"closed-set AFOP-ML ({art.reference_episodes} episodes per way). " + "; ".join(parts) + "."
+        "1-shot accuracy vs N (2..12) with 95 % CI bands per method (the paper's methods "
+        "solid, the methods beyond the paper dotted); the force/speed perturbation in three "
+        "panels, one per reading of where support and queries come from (within one "
+        "condition, all conditions pooled, enrolled at nominal), none promoted; the dashed "
+        f"black line is closed-set AFOP-ML ({art.reference_episodes} episodes per way). "
+        + "; ".join(parts)
+        + "."
     )
     notes["perturbation_heatmap"] = (
         "5-way-1-shot accuracy per force x speed condition after fitting at the nominal "
-        "1 N / 10 mm/s; episodes per cell: "
+        "1 N / 10 mm/s, support and queries within each condition; episodes per cell: "
         f"[{_episodes_of(records, protocol='perturbation', way=5)}]."
+    )
+    notes["perturbation_heatmap_enrolled"] = (
+        "The same grid with the support enrolled at nominal: support examples from the "
+        "nominal dataset's closed-set test half, queries from each perturbed condition."
     )
     sel = select(records, "selection")
     notes["selection"] = (
@@ -459,9 +499,12 @@ def figure_notes(records: Sequence[Mapping[str, Any]], art: Artefacts, seed: int
     ind = art.indicators
     notes["tsne"] = (
         f"t-SNE of the {art.emb.shape[0]} closed-set test-half trials in AFOP-ML's "
-        f"top-{art.chosen_d} feature space; markers = shape, colours = material. "
-        f"1-NN = {ind['nn1_shape_accuracy']:.3f}, mix-sil = {ind['mix_sil']:.3f}, "
-        f"DGI = {ind['dgi']:.3f} (t-SNE seed {seed})."
+        f"top-{art.chosen_d} feature space; markers = shape, colours = material. In the "
+        f"top-{art.chosen_d} space: 1-NN = {ind['nn1_shape_accuracy']:.3f}, mix-sil = "
+        f"{ind['mix_sil']:.3f}, DGI = {ind['dgi']:.3f}; on the 2-D embedding drawn: "
+        f"1-NN = {ind.get('embedding_nn1_shape_accuracy', float('nan')):.3f}, mix-sil = "
+        f"{ind.get('embedding_mix_sil', float('nan')):.3f}, DGI = "
+        f"{ind.get('embedding_dgi', float('nan')):.3f} (t-SNE seed {seed})."
     )
     notes["signals"] = (
         "The first trial of each class, 4 channels each, every channel standardised over "

@@ -3,30 +3,35 @@ the closed-set top-D features and the paper's three indicators of Fig. 7, and
 :func:`analyse`, which produces them (with the D-scan figure's data) from the records of
 the closed-set AFOP-ML fit the protocols evaluated.
 
-Indicator definitions (computed on the 2-D t-SNE embedding, as the paper's figure):
+Where the indicators are computed: the paper's caption says "t-SNE is used only for
+qualitative visualization; overlaps in 2D do not necessarily imply misclassification in
+the original Top-D space", so its indicators describe the top-D feature space. They are
+computed there (the closed-set test-half trials in the fit's top-D features, each column
+standardised, Euclidean distance: the very input of the t-SNE), and again on the 2-D
+t-SNE embedding beside them, labelled as such (:class:`Indicators`, ``embedding_*``).
+
+Indicator definitions (the same on either point set):
 
 - ``nn1_shape_accuracy``: leave-one-out 1-nearest-neighbour accuracy of the *shape* label
-  (Euclidean distance in the embedding, the point itself excluded). 1 = every trial's
-  nearest neighbour has its shape; chance is about 1/12.
+  (the point itself excluded). 1 = every trial's nearest neighbour has its shape; chance
+  is about 1/12.
 - ``mix_sil``: a 0-1 material-mixing score. Within each shape's points, the silhouette
   coefficient of the *material* labels is computed (scikit-learn, Euclidean); ``s`` is the
   trial-weighted mean over shapes. ``mix_sil = 1 - clip(s, 0, 1)``: 1 when materials do
   not form sub-clusters inside a shape cluster (s <= 0), 0 when every material is a
   perfectly separated sub-cluster (s = 1). Higher = more material-invariant.
-- ``dgi`` (Distance to Geometric Impostor): for each trial, ``b`` = distance to its
-  nearest *geometric impostor* (a trial of the same material but a different shape) and
-  ``a`` = distance to its nearest trial of the same shape but a different material;
-  ``dgi`` is the median over trials of ``b / a``. It compares the nearest cross-material
-  neighbour of a trial's own geometry with the nearest same-material neighbour of
-  another geometry: ``dgi > 1`` means a trial's other-material twins lie nearer than
-  anything sharing its material (materials mix inside the shape clusters; geometry, not
-  material, organises the space), ``dgi < 1`` means material pulls trials together more
-  than geometry does. Scale-free; equal to (shape-cluster separation) / (within-cluster
-  spacing) when materials are randomly mixed inside compact, well-separated shape
-  clusters. It does not see material sub-clusters inside a shape cluster as long as
-  they are nearer to each other than to other shapes: that is what ``mix_sil`` measures.
-  Trials without a same-shape other-material or a same-material other-shape trial are
-  skipped.
+- ``dgi``, the paper's "ratio of cross-material to same-material neighbors" (> 1: strong
+  mixing): in the k-nearest-neighbour graph of the points (:data:`DGI_K` neighbours per
+  point, Euclidean), among the edges that join two points of the same shape, the number
+  joining different materials divided by the number joining the same material (counts
+  pooled over all points). If materials were randomly mixed within each shape, the
+  ratio would be that of the pairs: with n trials per class and 3 materials, 2n / (n - 1)
+  (about 2.07 for the 30 test trials per class of the paper preset); :func:`dgi_random`
+  gives it for the actual labels. When each material forms its own sub-cluster inside a
+  shape cluster the neighbours are same-material and the ratio falls towards 0. ``k`` =
+  10: well below the 29 other trials of a point's class, so a material sub-cluster can
+  fill a point's whole neighbourhood (with k >= 30 even perfectly separated materials
+  would show cross-material neighbours), and enough edges per point for stable counts.
 """
 
 from __future__ import annotations
@@ -60,11 +65,24 @@ def sensor_shares(selected: Sequence[int], feature_names: Sequence[str]) -> tupl
     return pvdf / len(sel), sg / len(sel)
 
 
+#: Neighbours per point in the DGI's k-nearest-neighbour graph (see the module docstring).
+DGI_K = 10
+
+
+def standardise(features: np.ndarray) -> np.ndarray:
+    """Each column of ``features`` ``(n, D)`` to zero mean and unit variance (constant
+    columns left at zero): the top-D space the indicators and the t-SNE read (the D
+    features have different units)."""
+    x = np.asarray(features, dtype=np.float64)
+    std = x.std(axis=0)
+    return (x - x.mean(axis=0)) / np.where(std > 0, std, 1.0)
+
+
 def tsne_embedding(features: np.ndarray, *, seed: int) -> np.ndarray:
     """2-D t-SNE of ``features`` ``(n, D)`` -> ``(n, 2)``, deterministic for a seed.
 
-    Features are standardised per column first (D-dimensional top-D features have
-    different units); perplexity is 30 or less for small n.
+    Features are standardised per column first (:func:`standardise`); perplexity is 30 or
+    less for small n.
     """
     from sklearn.manifold import TSNE
 
@@ -72,8 +90,7 @@ def tsne_embedding(features: np.ndarray, *, seed: int) -> np.ndarray:
     if x.ndim != 2 or x.shape[0] < 5:
         raise ValueError(f"features must have shape (n >= 5, D); got {x.shape}")
     check_int("seed", seed, minimum=0)
-    std = x.std(axis=0)
-    x = (x - x.mean(axis=0)) / np.where(std > 0, std, 1.0)
+    x = standardise(x)
     perplexity = float(min(30.0, (x.shape[0] - 1) / 3.0))
     tsne = TSNE(
         n_components=2,
@@ -87,16 +104,24 @@ def tsne_embedding(features: np.ndarray, *, seed: int) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class TsneIndicators:
-    """The paper's Fig. 7 indicators (definitions in the module docstring)."""
+class Indicators:
+    """The paper's Fig. 7 indicators of one point set (definitions in the module
+    docstring); ``dgi_k`` the neighbours per point of the DGI's graph."""
 
     nn1_shape_accuracy: float
     mix_sil: float
     dgi: float
+    dgi_k: int = DGI_K
+
+
+#: The former name of :class:`Indicators`.
+TsneIndicators = Indicators
 
 
 def _pairwise(emb: np.ndarray) -> np.ndarray:
-    d = np.sqrt(((emb[:, None, :] - emb[None, :, :]) ** 2).sum(-1))
+    x = np.asarray(emb, dtype=np.float64)
+    sq = (x * x).sum(axis=1)
+    d = np.sqrt(np.maximum(sq[:, None] + sq[None, :] - 2.0 * (x @ x.T), 0.0))
     np.fill_diagonal(d, np.inf)
     return d
 
@@ -129,34 +154,68 @@ def mixing_silhouette(emb: np.ndarray, shape: np.ndarray, material: np.ndarray) 
     return float(1.0 - np.clip(total / weight, 0.0, 1.0))
 
 
-def geometric_impostor_ratio(emb: np.ndarray, shape: np.ndarray, material: np.ndarray) -> float:
-    """DGI: median over trials of (distance to the nearest same-material trial of another
-    shape) / (distance to the nearest same-shape trial of another material). NaN when no
-    trial has both kinds of neighbour."""
-    shape = np.asarray(shape)
-    material = np.asarray(material)
-    d = _pairwise(np.asarray(emb, dtype=np.float64))
-    same_shape = shape[:, None] == shape[None, :]
-    same_material = material[:, None] == material[None, :]
-    a = np.where(same_shape & ~same_material, d, np.inf).min(axis=1)
-    b = np.where(same_material & ~same_shape, d, np.inf).min(axis=1)
-    ok = np.isfinite(a) & np.isfinite(b) & ((a > 0) | (b > 0))
-    if not ok.any():
-        return float("nan")
-    with np.errstate(divide="ignore"):
-        ratio = b[ok] / a[ok]  # a == 0 < b: a twin on top of the trial, ratio inf
-    return float(np.median(ratio))
+def nearest_neighbours(points: np.ndarray, k: int) -> np.ndarray:
+    """``(n, k)`` indices of each point's ``k`` nearest other points (Euclidean; equal
+    distances broken by the lower index)."""
+    d = _pairwise(points)
+    k = check_int("k", k, minimum=1)
+    if k >= d.shape[0]:
+        raise ValueError(f"k must be below the number of points ({d.shape[0]}); got {k}")
+    return np.argsort(d, axis=1, kind="stable")[:, :k]
 
 
-def tsne_indicators(emb: np.ndarray, shape: np.ndarray, material: np.ndarray) -> TsneIndicators:
-    """All three indicators for an embedding ``(n, 2)`` with per-trial labels ``(n,)``."""
+def _dgi_ratio(cross: float, same: float) -> float:
+    if same > 0:
+        return float(cross / same)
+    return float("inf") if cross > 0 else float("nan")
+
+
+def dgi(points: np.ndarray, shape: np.ndarray, material: np.ndarray, *, k: int = DGI_K) -> float:
+    """The paper's DGI: in the ``k``-nearest-neighbour graph of ``points`` ``(n, d)``,
+    the number of same-shape edges joining different materials divided by the number
+    joining the same material, pooled over all points. inf when no same-shape edge joins
+    one material, NaN when no edge joins two points of one shape."""
     shape = np.asarray(shape)
     material = np.asarray(material)
-    return TsneIndicators(
-        nn1_shape_accuracy=nn1_accuracy(emb, shape),
-        mix_sil=mixing_silhouette(emb, shape, material),
-        dgi=geometric_impostor_ratio(emb, shape, material),
+    nb = nearest_neighbours(points, k)
+    same_shape = shape[nb] == shape[:, None]
+    same_material = material[nb] == material[:, None]
+    return _dgi_ratio(
+        float((same_shape & ~same_material).sum()), float((same_shape & same_material).sum())
     )
+
+
+def dgi_random(shape: np.ndarray, material: np.ndarray) -> float:
+    """The DGI that materials randomly mixed within each shape would give on average: the
+    ratio of the same-shape pairs of points with different materials to those with the
+    same material (2n / (n - 1) for n trials per class and 3 materials)."""
+    shape = np.asarray(shape)
+    material = np.asarray(material)
+    cross = same = 0
+    for s in np.unique(shape):
+        _, counts = np.unique(material[shape == s], return_counts=True)
+        total = counts.sum()
+        same += int((counts * (counts - 1)).sum())
+        cross += int((counts * (total - counts)).sum())
+    return _dgi_ratio(cross, same)
+
+
+def indicators(
+    points: np.ndarray, shape: np.ndarray, material: np.ndarray, *, k: int = DGI_K
+) -> Indicators:
+    """All three indicators of a point set ``(n, d)`` with per-trial labels ``(n,)``."""
+    shape = np.asarray(shape)
+    material = np.asarray(material)
+    return Indicators(
+        nn1_shape_accuracy=nn1_accuracy(points, shape),
+        mix_sil=mixing_silhouette(points, shape, material),
+        dgi=dgi(points, shape, material, k=k),
+        dgi_k=int(k),
+    )
+
+
+#: The former name of :func:`indicators`.
+tsne_indicators = indicators
 
 
 @dataclass(frozen=True)
@@ -166,8 +225,10 @@ class Artefacts:
     dscan: the closed-set AFOP-ML fit's D-scan (``D``, ``mean``, ``ci95`` lists of its
     ``dscan`` record) or None; chosen_d: that fit's D; emb: ``(n, 2)`` t-SNE of the
     closed-set test half in that fit's top-D features; shape, material: ``(n,)`` labels;
-    indicators: the three Fig. 7 indicators; reference_episodes: episodes per way of the
-    reference curve.
+    indicators: the Fig. 7 indicators in the top-D space (``nn1_shape_accuracy``,
+    ``mix_sil``, ``dgi``) and on the embedding (``embedding_`` + the same names), and
+    ``dgi_k``, ``dgi_random``; reference_episodes: episodes per way of the reference
+    curve.
     """
 
     dscan: Mapping[str, Sequence[float]] | None
@@ -213,28 +274,28 @@ def analyse(
     dscan = {k: list(scans[0][k]) for k in ("D", "mean", "ci95")} if scans else None
     test = split_halves(data.label, seed=seed)[1]
     top = features.of(data)[test][:, selected]
+    shape, material = data.shape[test], data.material[test]
     emb = tsne_embedding(top, seed=seed)
-    ind = tsne_indicators(emb, data.shape[test], data.material[test])
-    out: list[Record] = [
-        tsne_record(
-            protocol=PROTOCOL,
-            D=chosen_d,
-            nn1_shape_accuracy=ind.nn1_shape_accuracy,
-            mix_sil=ind.mix_sil,
-            dgi=ind.dgi,
-        )
-    ]
+    space = indicators(standardise(top), shape, material)
+    flat = indicators(emb, shape, material)
+    values = {
+        "nn1_shape_accuracy": space.nn1_shape_accuracy,
+        "mix_sil": space.mix_sil,
+        "dgi": space.dgi,
+        "dgi_k": space.dgi_k,
+        "dgi_random": dgi_random(shape, material),
+        "embedding_nn1_shape_accuracy": flat.nn1_shape_accuracy,
+        "embedding_mix_sil": flat.mix_sil,
+        "embedding_dgi": flat.dgi,
+    }
+    out: list[Record] = [tsne_record(protocol=PROTOCOL, D=chosen_d, **values)]
     art = Artefacts(
         dscan=dscan,
         chosen_d=chosen_d,
         emb=emb,
-        shape=np.asarray(data.shape[test]),
-        material=np.asarray(data.material[test]),
-        indicators={
-            "nn1_shape_accuracy": ind.nn1_shape_accuracy,
-            "mix_sil": ind.mix_sil,
-            "dgi": ind.dgi,
-        },
+        shape=np.asarray(shape),
+        material=np.asarray(material),
+        indicators=values,
         reference_episodes=episodes,
     )
     return out, art

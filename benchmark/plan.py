@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from models.registry import METHOD_NAMES
+from models.registry import DEFAULT_METHODS
 
 from .budget import Budget
 from .engine import check_methods
@@ -47,7 +47,8 @@ class RunPlan:
 
 def run_plan(quick: bool, *, seed: int = 0, methods: Sequence[str] | None = None) -> RunPlan:
     """The full (``paper`` + ``perturbation`` presets) or ``--quick`` plan; ``methods``
-    replaces the plan's methods (default: all seven, :data:`QUICK_METHODS` when quick).
+    replaces the plan's methods (default: the paper's seven and the variants beyond the
+    paper, :data:`models.registry.DEFAULT_METHODS`; :data:`QUICK_METHODS` when quick).
 
     Budgets (:func:`full_budget`): the same for every method, the paper's 500 episodes per
     closed-set column and 100 per generalisation point (11 ways x 3 folds or 9
@@ -66,7 +67,7 @@ def run_plan(quick: bool, *, seed: int = 0, methods: Sequence[str] | None = None
             seed=seed,
         )
         return RunPlan(nominal, pert, chosen or QUICK_METHODS, QUICK_BUDGET)
-    chosen = chosen or METHOD_NAMES
+    chosen = chosen or DEFAULT_METHODS
     return RunPlan(
         preset("paper").replace(seed=seed),
         preset("perturbation").replace(seed=seed),

@@ -46,7 +46,7 @@ from .evaluate import EvalResult
 #: Layout version of the records, written into every record as ``schema_version`` and
 #: checked by :func:`read_results`. Raise it when a field changes meaning, type or unit,
 #: or is removed; adding a record kind or an optional field keeps it.
-SCHEMA_VERSION: int = 1
+SCHEMA_VERSION: int = 2
 
 ACCURACY_FIELDS: tuple[str, ...] = (
     "record",
@@ -174,7 +174,10 @@ class SelectionRecord(_Record):
 
 @dataclass(frozen=True, eq=False)
 class TsneRecord(_Record):
-    """The paper's t-SNE indicators of the top-D embedding."""
+    """The paper's Fig. 7 indicators of the closed-set top-D feature space
+    (``nn1_shape_accuracy``, ``mix_sil``, ``dgi``, the DGI's neighbours ``dgi_k`` and its
+    value under random material mixing ``dgi_random``) and of the 2-D t-SNE embedding
+    (``embedding_*``); definitions in :mod:`benchmark.interpret` and docs/results.md."""
 
     kind: ClassVar[str] = "tsne"
     protocol: str
@@ -183,6 +186,11 @@ class TsneRecord(_Record):
     nn1_shape_accuracy: float
     mix_sil: float
     dgi: float
+    dgi_k: int | None = None
+    dgi_random: float | None = None
+    embedding_nn1_shape_accuracy: float | None = None
+    embedding_mix_sil: float | None = None
+    embedding_dgi: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -365,9 +373,19 @@ def selection_record(
 
 
 def tsne_record(
-    *, protocol: str, D: int, nn1_shape_accuracy: float, mix_sil: float, dgi: float
+    *,
+    protocol: str,
+    D: int,
+    nn1_shape_accuracy: float,
+    mix_sil: float,
+    dgi: float,
+    dgi_k: int | None = None,
+    dgi_random: float | None = None,
+    embedding_nn1_shape_accuracy: float | None = None,
+    embedding_mix_sil: float | None = None,
+    embedding_dgi: float | None = None,
 ) -> TsneRecord:
-    """The paper's t-SNE indicators of the top-D embedding."""
+    """The paper's indicators of the top-D feature space, and of the t-SNE embedding."""
     return TsneRecord(
         protocol=protocol,
         fold=None,
@@ -375,6 +393,11 @@ def tsne_record(
         nn1_shape_accuracy=float(nn1_shape_accuracy),
         mix_sil=float(mix_sil),
         dgi=float(dgi),
+        dgi_k=None if dgi_k is None else int(dgi_k),
+        dgi_random=_opt_float(dgi_random),
+        embedding_nn1_shape_accuracy=_opt_float(embedding_nn1_shape_accuracy),
+        embedding_mix_sil=_opt_float(embedding_mix_sil),
+        embedding_dgi=_opt_float(embedding_dgi),
     )
 
 

@@ -19,7 +19,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import NamedTuple
 
-from models.registry import METHOD_NAMES
+from models.registry import DEFAULT_METHODS, MethodOptions, check_method_options
 from synth import Dataset
 from synth.store import versions as store_versions
 from tactile_synth import atomic
@@ -49,13 +49,32 @@ from .splits import NotApplicable, specimen_folds
 __all__ = ["benchmark_all", "dataset_summary", "run", "run_plan", "run_protocols"]
 
 NOTES = (
-    "CWT-ResNet-ML's ResNet was pretrained from scratch on each task's training classes "
-    "only (no ImageNet weights: none may be downloaded, and none would have seen tactile "
-    "scalograms).",
     "The perturbation protocol tests the closed-set fit of each method (fitted once on the "
     "closed-set training half of the nominal dataset, the same seeded 50:50 per-class "
     "split).",
 )
+#: The report's note on CWT-ResNet-ML's network when it is not started from given weights.
+CWT_SCRATCH_NOTE = (
+    "CWT-ResNet-ML's ResNet was trained from scratch on each task's training classes (its "
+    "epoch count chosen on held-out training classes, then trained on all of them): the "
+    "paper's pretrained ResNet weights cannot be downloaded at run time "
+    "(--method-option CWT-ResNet-ML:weights=PATH starts from a ResNet-18 state dict you have)."
+)
+
+
+def options_notes(options: MethodOptions | None, methods: Sequence[str] | None = None) -> list[str]:
+    """The report's note on each method built with options other than its defaults, and
+    on CWT-ResNet-ML's network when it is among ``methods`` without given weights."""
+    options = options or {}
+    notes = [
+        f"{method} built with {', '.join(f'{k}={v!r}' for k, v in params.items())} "
+        "(--method-option)."
+        for method, params in options.items()
+        if params
+    ]
+    if "CWT-ResNet-ML" in (methods or ()) and not options.get("CWT-ResNet-ML", {}).get("weights"):
+        notes.append(CWT_SCRATCH_NOTE)
+    return notes
 
 
 def run_protocols(
@@ -70,19 +89,24 @@ def run_protocols(
     progress: bool,
     features: Features,
     workers: int = 1,
+    options: MethodOptions | None = None,
 ) -> ProtocolRuns:
     """Every protocol's records, each from its checkpoint in ``out`` when the inputs are
     unchanged, else run by the engine and checkpointed as soon as it completes. The
     protocols still to run share one queue of fits (:func:`benchmark.engine.run_task_sets`)
-    in up to ``workers`` processes."""
+    in up to ``workers`` processes; ``options``: constructor options per method."""
     base = {
         "data": checkpoints.fingerprint(data),
         "perturbed": None if perturbed is None else checkpoints.fingerprint(perturbed),
         "methods": list(methods),
-        "settings": checkpoints.method_settings(methods),
+        "settings": checkpoints.method_settings(methods, options),
         "version": store_versions()["package_version"],
         "seed": seed,
     }
+    # Options join the key only when there are any (keys of runs without them unchanged).
+    if options:
+        base["options"] = {m: dict(o) for m, o in options.items()}
+        base["option_files"] = checkpoints.option_files(options)
     # Plug-ins' source hashes join the key only when there are any, so that the keys of
     # runs of built-in methods and protocols stay those of earlier versions.
     sources = checkpoints.method_sources(methods)
@@ -143,6 +167,7 @@ def run_protocols(
             workers=workers,
             on_done=done,
             fit_cache=fits,
+            options=options,
         ).processes
         fits.clear()
     return ProtocolRuns([r for i in range(len(protocols)) for r in found[i]], processes, skipped)
@@ -208,18 +233,20 @@ def benchmark_all(
     perturbed: Dataset,
     out: str | Path,
     *,
-    methods: Sequence[str] = METHOD_NAMES,
+    methods: Sequence[str] = DEFAULT_METHODS,
     budget: Budget | None = None,
     seed: int = 0,
     progress: bool = True,
     data_path: str | Path | None = None,
     perturbed_path: str | Path | None = None,
     workers: int | None = None,
+    options: MethodOptions | None = None,
 ) -> list[Record]:
     """All four protocols + interpretability on ``data`` (nominal) and ``perturbed``;
     writes ``out/results.json``, ``out/report.md`` and the PNG figures. Returns records.
 
-    workers: processes the protocols' fits run in (default :func:`default_workers`)."""
+    workers: processes the protocols' fits run in (default :func:`default_workers`);
+    options: constructor options per method (``--method-option``)."""
     from .interpret import analyse
     from .protocols.closed_set import Reference
 
@@ -227,6 +254,7 @@ def benchmark_all(
     methods = check_methods(methods)
     if "AFOP-ML" not in methods:
         raise ValueError("methods must include AFOP-ML (the report and Fig. 6/7 are about it)")
+    options = check_method_options(options or {}, methods)
     check_int("seed", seed, minimum=0)
     budget = budget or Budget()
     out = Path(out)
@@ -249,6 +277,7 @@ def benchmark_all(
         progress=progress,
         features=features,
         workers=workers,
+        options=options,
     )
     log(progress, "t-SNE of the closed-set AFOP-ML fit's top-D features")
     extra, artefacts = analyse(data, records, features=features, episodes=budget.default, seed=seed)
@@ -268,7 +297,11 @@ def benchmark_all(
         else [list(f) for f in specimen_folds(data.specimens)],
         "figures": draw_figures(records, data, artefacts, out),
         "figure_notes": figure_notes(records, artefacts, seed),
-        "notes": [*NOTES, *(f"{name} was not run: {why}." for name, why in skipped.items())],
+        "notes": [
+            *NOTES,
+            *options_notes(options, methods),
+            *(f"{name} was not run: {why}." for name, why in skipped.items()),
+        ],
     }
     write_report(records, out, meta)
     log(progress, f"benchmark done in {time.perf_counter() - t_start:.0f} s")
@@ -287,11 +320,12 @@ def run(
     overwrite: bool = False,
     data: str | Path | None = None,
     perturbed: str | Path | None = None,
+    options: MethodOptions | None = None,
 ) -> list[Record]:
     """Generate the nominal and perturbation datasets into ``out/data`` (reusing or
     completing any already there) and run :func:`benchmark_all` into ``out`` with the
     plan's methods, or ``methods`` (names, plug-in names or ``module:Class``; must include
-    AFOP-ML).
+    AFOP-ML), each built with its ``options`` (``--method-option``).
 
     ``data`` / ``perturbed``: existing dataset stores (generated or imported with
     ``tactile-synth import``) used instead of generating the nominal / perturbation
@@ -318,6 +352,7 @@ def run(
     plan = run_plan(quick, seed=seed, methods=methods)
     if "AFOP-ML" not in plan.methods:
         raise ValueError("methods must include AFOP-ML (the report and Fig. 6/7 are about it)")
+    options = check_method_options(options or {}, plan.methods)
     given = {"nominal": data, "perturbation": perturbed}
     for path, arg in zip(given.values(), ("data", "perturbed"), strict=True):
         if path is not None and not Path(path).is_dir():
@@ -344,6 +379,7 @@ def run(
             data_path=paths["nominal"],
             perturbed_path=paths["perturbation"],
             workers=workers,
+            options=options,
         )
     log(progress, f"done in {time.perf_counter() - t_start:.0f} s (datasets and benchmark)")
     return records

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from models.registry import METHOD_NAMES
+from models.registry import DEFAULT_METHODS, MethodOptions, check_method_options
 from tactile_synth.validation import check_int
 
 from . import figures
@@ -31,13 +31,16 @@ def benchmark_protocol(
     progress: bool = True,
     overwrite: bool = False,
     workers: int | None = None,
+    options: MethodOptions | None = None,
 ) -> list[Record]:
     """Run ``protocol`` (a built-in or plug-in protocol name, ``module:Class``, or
     ``"all"``) and write results, report and figures. A protocol read against the
     closed-set reference curve also gets that curve.
 
     ``workers``: processes the fits run in (default: one per usable CPU, see
-    :func:`benchmark.run.default_workers`).
+    :func:`benchmark.run.default_workers`). ``methods`` default to the paper's seven and
+    the variants (:data:`models.registry.DEFAULT_METHODS`); ``options``: constructor
+    options per method (``--method-option``).
 
     ``out`` is refused if it holds files this tool did not write, unless ``overwrite``;
     its whole output set is replaced at once when the run succeeds (see
@@ -46,11 +49,19 @@ def benchmark_protocol(
     from synth import load_dataset
 
     from .report import dataset_summary, write_report
-    from .run import benchmark_all, default_workers, kernels_line, run_protocols, threads_line
+    from .run import (
+        benchmark_all,
+        default_workers,
+        kernels_line,
+        options_notes,
+        run_protocols,
+        threads_line,
+    )
     from .splits import NotApplicable
 
     chosen = None if protocol == "all" else get(protocol, arg="PROTOCOL")
-    methods = check_methods(list(methods) if methods else list(METHOD_NAMES))
+    methods = check_methods(list(methods) if methods else list(DEFAULT_METHODS))
+    options = check_method_options(options or {}, methods)
     check_episodes(episodes)
     check_int("seed", seed, minimum=0)
     workers = default_workers() if workers is None else check_int("workers", workers, minimum=1)
@@ -88,6 +99,7 @@ def benchmark_protocol(
                 data_path=data_path,
                 perturbed_path=perturbed_path,
                 workers=workers,
+                options=options,
             )
         records, processes, _ = run_protocols(
             [chosen, Reference()] if chosen.uses_reference else [chosen],
@@ -100,6 +112,7 @@ def benchmark_protocol(
             progress=progress,
             features=Features(),
             workers=workers,
+            options=options,
         )
         write_results(out / "results.json", records)
         made: dict[str, str] = {}
@@ -123,7 +136,7 @@ def benchmark_protocol(
             "threads": threads_line(processes),
             "kernels": kernels_line(processes),
             "figures": made,
-            "notes": [f"protocol {chosen.name} only"],
+            "notes": [f"protocol {chosen.name} only", *options_notes(options, methods)],
         }
         write_report(records, out, meta)
         return records

@@ -32,12 +32,13 @@ import os
 import re
 import shutil
 import tempfile
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from models.registry import MethodOptions
 from synth import Dataset
 from tactile_synth.threads import init_worker, worker_threads
 
@@ -96,6 +97,7 @@ def _task_json(task: Task, refs: dict[int, str]) -> dict[str, Any]:
         "fit_seed": task.fit_seed,
         "methods": None if task.methods is None else list(task.methods),
         "fit_records": task.fit_records,
+        "support": None if task.support is None else _pool_json(task.support, refs),
     }
 
 
@@ -112,10 +114,15 @@ def _task(d: dict[str, Any], datasets: dict[str, Dataset]) -> Task:
         fit_seed=d["fit_seed"],
         methods=None if d["methods"] is None else tuple(d["methods"]),
         fit_records=d["fit_records"],
+        support=None
+        if d["support"] is None
+        else Pool(datasets[d["support"]["data"]], np.asarray(d["support"]["index"], dtype=np.intp)),
     )
 
 
-def _job_json(group: FitGroup, name: str, refs: dict[int, str]) -> str:
+def _job_json(
+    group: FitGroup, name: str, refs: dict[int, str], options: Mapping[str, object] | None
+) -> str:
     shares = [
         {
             "set": s.set_index,
@@ -124,7 +131,14 @@ def _job_json(group: FitGroup, name: str, refs: dict[int, str]) -> str:
         }
         for s in group.shares
     ]
-    return json.dumps({"method": name, "methods": list(group.methods), "shares": shares})
+    return json.dumps(
+        {
+            "method": name,
+            "methods": list(group.methods),
+            "shares": shares,
+            "options": dict(options or {}),
+        }
+    )
 
 
 # -- the worker side ------------------------------------------------------------------------
@@ -140,7 +154,13 @@ def _init(threads: int, directory: str) -> None:
 
 def _run_job(payload: str) -> str:
     job = json.loads(payload)
-    keys = {t[p]["data"] for s in job["shares"] for t in s["tasks"] for p in ("fit", "test")}
+    keys = {
+        t[p]["data"]
+        for s in job["shares"]
+        for t in s["tasks"]
+        for p in ("fit", "test", "support")
+        if t[p] is not None
+    }
     for key in keys - _opened.keys():
         _opened[key] = _open(_directory / key)
     datasets = {key: data for key, (data, _) in _opened.items()}
@@ -152,7 +172,7 @@ def _run_job(payload: str) -> str:
         ),
         tuple(job["methods"]),
     )
-    return run_fit(group, job["method"], features).to_json()
+    return run_fit(group, job["method"], features, options=job["options"]).to_json()
 
 
 # -- the run's side -------------------------------------------------------------------------
@@ -209,10 +229,12 @@ def run_fits(
     *,
     workers: int,
     threads: int | None = None,
+    options: MethodOptions | None = None,
 ) -> Iterator[tuple[tuple[int, str], FitResult]]:
     """Run ``jobs`` (group index, method name) in ``workers`` processes of ``threads``
-    threads each (default: their share of the CPUs); yields each job's result as it
-    finishes."""
+    threads each (default: their share of the CPUs), each method built with its
+    ``options`` (JSON values); yields each job's result as it finishes."""
+    options = options or {}
     threads = threads or worker_threads(workers)
     remove_stale()
     with tempfile.TemporaryDirectory(prefix=f"{PREFIX}{os.getpid()}-") as tmp:
@@ -220,8 +242,8 @@ def run_fits(
         for group in groups:
             for share in group.shares:
                 for task in share.tasks:
-                    for pool in (task.fit, task.test):
-                        if id(pool.data) not in refs:
+                    for pool in (task.fit, task.test, task.support):
+                        if pool is not None and id(pool.data) not in refs:
                             refs[id(pool.data)] = key = f"data{len(refs)}"
                             _save(pool.data, features.of(pool.data), Path(tmp) / key)
         executor = cf.ProcessPoolExecutor(
@@ -231,7 +253,10 @@ def run_fits(
             initargs=(threads, tmp),
         )
         futures = {
-            executor.submit(_run_job, _job_json(groups[g], name, refs)): (g, name)
+            executor.submit(_run_job, _job_json(groups[g], name, refs, options.get(name))): (
+                g,
+                name,
+            )
             for g, name in jobs
         }
         pending = set(futures)

@@ -35,6 +35,7 @@ class AFOPML(FewShotMethod):
     size), ``selected_`` (indices of the top-D features)."""
 
     name = "AFOP-ML"
+    cost_hint = (5.0, 2.0)
 
     def __init__(
         self,

@@ -20,6 +20,7 @@ class DirectProtML(FewShotMethod):
     """Learned: ``scaler_`` (training-set z-scoring); ``feature_dim_`` = 386."""
 
     name = "Direct-Prot-ML"
+    cost_hint = (0.5, 3.0)
 
     def __init__(
         self,

@@ -124,3 +124,66 @@ def meta_training_episodes(labels: np.ndarray, *, episodes: int, seed: int) -> E
         episodes=episodes,
         seed=seed,
     )
+
+
+def sample_split_episodes(
+    support_labels: np.ndarray,
+    query_labels: np.ndarray,
+    *,
+    n_way: int,
+    k_shot: int,
+    n_query: int,
+    episodes: int,
+    seed: int,
+) -> EpisodeBatch:
+    """``episodes`` N-way K-shot episodes whose support trials come from one pool and whose
+    queries come from another, the two pools' labels in one label space (enrolment: the
+    support set recorded in one setting, the queries in another).
+
+    Indices address the two pools laid end to end, the support pool first: ``support``
+    values lie in ``0..len(support_labels) - 1``, ``query`` values are offset by
+    ``len(support_labels)``. Only classes with at least ``k_shot`` support-pool trials and
+    ``n_query`` query-pool trials are eligible; impossible requests raise ``ValueError``.
+    Drawn as :func:`sample_episodes` draws (classes without replacement in random order,
+    queries shuffled), from its own seeded generator.
+    """
+    ys = np.asarray(support_labels)
+    yq = np.asarray(query_labels)
+    for arg, y in (("support_labels", ys), ("query_labels", yq)):
+        if y.ndim != 1 or y.size == 0:
+            raise ValueError(f"{arg} must be a non-empty 1-D array; got shape {y.shape}")
+    check_int("n_way", n_way, minimum=2)
+    check_int("k_shot", k_shot, minimum=1)
+    check_int("n_query", n_query, minimum=1)
+    check_int("episodes", episodes, minimum=1)
+    check_int("seed", seed, minimum=0)
+    s_cls, s_cnt = np.unique(ys, return_counts=True)
+    q_cls, q_cnt = np.unique(yq, return_counts=True)
+    eligible = np.intersect1d(s_cls[s_cnt >= k_shot], q_cls[q_cnt >= n_query])
+    if eligible.size < n_way:
+        raise ValueError(
+            f"n_way={n_way} needs {n_way} classes with >= {k_shot} support-pool trials and "
+            f">= {n_query} query-pool trials; {eligible.size} classes have them"
+        )
+    s_members = {c: np.flatnonzero(ys == c) for c in eligible}
+    q_members = {c: np.flatnonzero(yq == c) + ys.size for c in eligible}
+    rng = np.random.default_rng(np.random.SeedSequence([seed, n_way, k_shot, n_query, 0x5E7]))
+    support = np.empty((episodes, n_way, k_shot), dtype=np.intp)
+    query = np.empty((episodes, n_way, n_query), dtype=np.intp)
+    chosen = np.empty((episodes, n_way), dtype=eligible.dtype)
+    for e in range(episodes):
+        picked = rng.choice(eligible, size=n_way, replace=False)
+        chosen[e] = picked
+        for n, c in enumerate(picked):
+            support[e, n] = rng.choice(s_members[c], size=k_shot, replace=False)
+            query[e, n] = rng.choice(q_members[c], size=n_query, replace=False)
+    flat_q = query.reshape(episodes, -1)
+    flat_l = np.broadcast_to(np.arange(n_way)[None, :, None], query.shape).reshape(episodes, -1)
+    order = np.argsort(rng.random(flat_q.shape), axis=1)
+    return EpisodeBatch(
+        support=support,
+        query=np.take_along_axis(flat_q, order, axis=1),
+        query_labels=np.take_along_axis(flat_l, order, axis=1),
+        classes=chosen,
+        seed=seed,
+    )

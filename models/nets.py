@@ -12,8 +12,12 @@ time axis down to 62.5 Hz right away: the per-episode training cost then stays t
 network on a coarse sequence while every frequency band up to 250 Hz is seen.
 
 Hyper-parameters that no paper fixes (steps, learning rates) are chosen on validation
-episodes drawn from the training split only (:func:`validation_episodes`,
-:func:`select_steps_lr`); nothing from the test classes enters.
+episodes drawn from the training split only; nothing from the test classes enters. A
+network trained per episode (:class:`EpisodeNet`, :class:`EpisodeTrainer`) gets a
+:class:`Schedule`: per validated (shot, way) cell the learning rate and step count
+chosen on that cell's validation curves (:func:`select_schedule`), each curve read at
+doubling step counts until a doubling brings no gain, so the training length is where
+the validation accuracy stops rising, not a fixed budget.
 """
 
 from __future__ import annotations
@@ -168,56 +172,108 @@ def episode_inputs(x: torch.Tensor, index: np.ndarray) -> torch.Tensor:
     return x[torch.as_tensor(index)].transpose(0, 1)
 
 
+@dataclass(frozen=True)
+class EpisodeNet:
+    """A network trained per episode: ``init(E, N, generator)`` -> fresh stacked weights
+    of E episodes' networks, ``gather(x, idx (E, R))`` -> the model input of those trials
+    of the pool ``x``, ``forward(input, weights)`` -> logits ``(E, R, N)``, and
+    ``loss(logits (E, S, N), target (E, S))`` -> the sum over episodes of each episode's
+    support loss (None: cross-entropy); ``start(weights, support input, N, K)`` -> the
+    weights a network starts from, when part of them is set from its support set (a
+    prototype head; None: ``init``'s as they are); ``chunk`` and ``rows`` bound the
+    episodes trained together (:func:`episodes_per_chunk`)."""
+
+    init: Callable[[int, int, torch.Generator], list[torch.Tensor]]
+    gather: Callable[[torch.Tensor, np.ndarray], torch.Tensor]
+    forward: Callable[[torch.Tensor, list[torch.Tensor]], torch.Tensor]
+    loss: Callable[[torch.Tensor, torch.Tensor], torch.Tensor] | None = None
+    start: Callable[[list[torch.Tensor], torch.Tensor, int, int], list[torch.Tensor]] | None = None
+    chunk: int = 64
+    rows: int = 3072
+
+
+def _cross_entropy(logits: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    # Sum over episodes of each episode's mean loss: episodes do not interact.
+    e, _, n = logits.shape
+    return F.cross_entropy(logits.reshape(-1, n), target.reshape(-1)) * e
+
+
+class EpisodeTrainer:
+    """The networks of a chunk of E episodes, each trained from a fresh initialisation on
+    its own support set only (Adam, full batch), advanced a number of steps at a time and
+    asked for its queries' labels in between. Weights are stacked ``(E, ...)``: episodes
+    never interact (each episode's loss has its own weights only)."""
+
+    def __init__(
+        self,
+        net: EpisodeNet,
+        x: torch.Tensor,
+        support: np.ndarray,
+        query: np.ndarray,
+        *,
+        lr: float,
+        generator: torch.Generator,
+    ) -> None:
+        e, n_way, k_shot = support.shape
+        self.net = net
+        self.xs = net.gather(x, support.reshape(e, n_way * k_shot))
+        self.xq = net.gather(x, query)
+        params = net.init(e, n_way, generator)
+        if net.start is not None:
+            with torch.no_grad():
+                params = net.start(params, self.xs, n_way, k_shot)
+        self.params = [p.requires_grad_(True) for p in params]
+        self.opt = torch.optim.Adam(self.params, lr=lr)
+        self.target = torch.arange(n_way).repeat_interleave(k_shot).expand(e, -1)
+        self.loss = net.loss or _cross_entropy
+        self.steps = 0
+
+    def advance(self, steps: int) -> None:
+        """Train ``steps`` more Adam steps."""
+        for _ in range(steps):
+            loss = self.loss(self.net.forward(self.xs, self.params), self.target)
+            self.opt.zero_grad(set_to_none=True)
+            loss.backward()
+            self.opt.step()
+        self.steps += steps
+
+    def predict(self) -> np.ndarray:
+        """The queries' episode classes ``(E, M)`` with the weights as they stand."""
+        with torch.no_grad():
+            return self.net.forward(self.xq, self.params).argmax(dim=-1).numpy()
+
+
+def _chunks(support: np.ndarray, net: EpisodeNet) -> list[slice]:
+    e_total, n_way, k_shot = support.shape
+    step = episodes_per_chunk(n_way * k_shot, cap=net.chunk, rows=net.rows)
+    return [slice(i, i + step) for i in range(0, e_total, step)]
+
+
 def train_per_episode(
+    net: EpisodeNet,
     x: torch.Tensor,
     support: np.ndarray,
     query: np.ndarray,
     *,
-    init: Callable[[int, int, torch.Generator], list[torch.Tensor]],
-    gather: Callable[[torch.Tensor, np.ndarray], torch.Tensor],
-    forward: Callable[[torch.Tensor, list[torch.Tensor]], torch.Tensor],
     steps: int | Sequence[int],
     lr: float,
     seed: int,
-    chunk: int,
-    rows: int,
 ) -> np.ndarray:
-    """Train one network per episode from scratch on its support set (Adam, cross-entropy),
-    up to ``chunk`` episodes and ``rows`` support examples at once (see
-    :func:`episodes_per_chunk`), and label its queries: predictions ``(E, M)``.
+    """Train one network per episode from scratch on its support set (:class:`EpisodeNet`),
+    a chunk of episodes at a time (see :func:`episodes_per_chunk`), and label its queries:
+    predictions ``(E, M)``.
 
     ``steps`` may be a sorted sequence of step counts: the queries are then labelled after
     each of them during one training run, and the result is ``(len(steps), E, M)``.
-    ``init(E, N, generator)`` -> stacked weights; ``gather(x, idx (E, R))`` -> the model
-    input of those trials; ``forward(input, weights)`` -> logits ``(E, R, N)``.
     """
     marks = [steps] if isinstance(steps, int) else list(steps)
-    e_total, n_way, k_shot = support.shape
     out = np.empty((len(marks), *query.shape), dtype=np.int64)
     gen = torch.Generator().manual_seed(seed)
-    target = torch.arange(n_way).repeat_interleave(k_shot)
-    step = episodes_per_chunk(n_way * k_shot, cap=chunk, rows=rows)
-    for start in range(0, e_total, step):
-        s = support[start : start + step].reshape(-1, n_way * k_shot)
-        q = query[start : start + step]
-        e = s.shape[0]
-        params = [p.requires_grad_(True) for p in init(e, n_way, gen)]
-        opt = torch.optim.Adam(params, lr=lr)
-        xs = gather(x, s)
-        xq = gather(x, q)
-        tgt = target.expand(e, -1).reshape(-1)
-        done = 0
+    for sl in _chunks(support, net):
+        trainer = EpisodeTrainer(net, x, support[sl], query[sl], lr=lr, generator=gen)
         for m_i, mark in enumerate(marks):
-            for _ in range(mark - done):
-                logits = forward(xs, params)
-                # Sum over episodes of each episode's mean loss: episodes do not interact.
-                loss = F.cross_entropy(logits.reshape(-1, n_way), tgt) * e
-                opt.zero_grad(set_to_none=True)
-                loss.backward()
-                opt.step()
-            done = mark
-            with torch.no_grad():
-                out[m_i, start : start + e] = forward(xq, params).argmax(dim=-1).numpy()
+            trainer.advance(mark - trainer.steps)
+            out[m_i, sl] = trainer.predict()
     return out[0] if isinstance(steps, int) else out
 
 
@@ -273,61 +329,228 @@ def accuracy(pred: np.ndarray, batch: EpisodeBatch) -> float:
     return float((pred == batch.query_labels).mean())
 
 
-def select_steps_lr(
-    run: Callable[[EpisodeBatch, float, Sequence[int]], np.ndarray],
-    batches: Sequence[EpisodeBatch],
-    *,
-    lrs: Sequence[float],
-    steps: Sequence[int],
-) -> tuple[float, int, dict]:
-    """Pick the learning rate and step count with the best mean validation accuracy over
-    ``batches`` (ties: fewer steps, then the smaller rate).
+#: Shots and ways of the validation cells a per-episode network's schedule is chosen on:
+#: Table I's shots, and its smallest, a middle and its largest way (each lowered to what
+#: the training classes hold).
+VALIDATION_SHOTS: tuple[int, ...] = (1, 3, 5)
+VALIDATION_WAYS: tuple[int, ...] = (5, 12, 36)
+#: The first step count the validation curves are read at; each next one doubles it.
+FIRST_MARK = 5
+#: The curve of one learning rate is extended (step counts doubled) until a doubling brings
+#: no gain over the best so far; this bounds it where no validation curve of this project
+#: comes near (they level off within a few hundred steps), and the schedule records
+#: whether a curve reached it.
+MAX_MARK = FIRST_MARK * 2**11
+#: Doublings in a row without gain that end a validation curve still below twice chance.
+CHANCE_PATIENCE = 3
+#: Queries a validation cell's episodes hold in all (about): episodes per cell are
+#: ``ceil(VALIDATION_QUERIES / (way * queries per class))``, within
+#: :data:`MIN_VALIDATION_EPISODES` .. :data:`MAX_VALIDATION_EPISODES`, so every cell's
+#: accuracy is about equally precise (the bounds matter for tiny training pools only).
+VALIDATION_QUERIES = 1000
+MIN_VALIDATION_EPISODES = 8
+MAX_VALIDATION_EPISODES = 100
 
-    ``run(batch, lr, steps)`` trains on the batch's support sets and returns predictions
-    ``(len(steps), E, M)``. Returns ``(lr, steps, table)``; ``table`` holds the grid and
-    the accuracies ``(len(lrs), len(steps))`` as lists, for the record.
+
+@dataclass(frozen=True)
+class Setting:
+    """The Adam learning rate and step count of one validated (shot, way) cell."""
+
+    shot: int
+    way: int
+    lr: float
+    steps: int
+
+
+@dataclass(frozen=True)
+class Schedule:
+    """How long, and at which rate, a per-episode network trains on a support set of K
+    shots and N ways: the setting of the validated cell nearest to (K, N) (:meth:`of`).
+
+    settings: one per validated cell; curves: per cell and learning rate, the validation
+    accuracy (mean and 95 % CI over episodes) at each step count read, and whether the
+    curve levelled off before :data:`MAX_MARK` (``plateaued``); empty when the setting
+    was given, not chosen.
     """
-    marks = sorted(steps)
-    acc = np.zeros((len(lrs), len(marks)))
-    for i, lr in enumerate(lrs):
-        for batch in batches:
-            pred = run(batch, lr, marks)
-            acc[i] += [accuracy(p, batch) for p in pred]
-    acc /= len(batches)
-    best = max(
-        (acc[i, j], -marks[j], -lrs[i], i, j) for i in range(len(lrs)) for j in range(len(marks))
-    )
-    i, j = best[3], best[4]
-    table = {"lr": list(lrs), "steps": marks, "accuracy": acc.round(4).tolist()}
-    return float(lrs[i]), int(marks[j]), table
+
+    settings: tuple[Setting, ...]
+    curves: tuple[dict, ...] = ()
+
+    def of(self, shot: int, way: int) -> Setting:
+        """The setting for K = ``shot``, N = ``way``: the validated cell of the nearest shot
+        (the smaller on ties), among its cells the one of the nearest way on a log scale
+        (the smaller on ties); a schedule of one setting gives it for every episode."""
+        if len(self.settings) == 1:
+            return self.settings[0]
+        shots = sorted({c.shot for c in self.settings})
+        k = min(shots, key=lambda v: (abs(v - shot), v))
+        cells = [c for c in self.settings if c.shot == k]
+        return min(cells, key=lambda c: (abs(np.log(c.way / way)), c.way))
+
+    @classmethod
+    def fixed(cls, lr: float, steps: int) -> Schedule:
+        """One setting for every support set (given, not chosen)."""
+        return cls((Setting(0, 0, float(lr), int(steps)),))
+
+    def as_dict(self) -> dict:
+        return {
+            "settings": [vars(c) for c in self.settings],
+            "curves": list(self.curves),
+        }
 
 
-def steps_and_lr(
+def validation_cells(
+    labels: np.ndarray,
+    shots: Sequence[int] = VALIDATION_SHOTS,
+    ways: Sequence[int] = VALIDATION_WAYS,
+) -> list[tuple[int, int, int]]:
+    """``(shot, way, queries per class)`` of the validation cells ``labels`` (the training
+    split) can hold: ways above the class count lowered to it, shots to what the smallest
+    class holds with one query; repeats dropped."""
+    classes, counts = np.unique(labels, return_counts=True)
+    smallest = int(counts.min())
+    if classes.size < 2 or smallest < 2:
+        raise ValueError(
+            "validation needs at least 2 classes with at least 2 trials each in the training "
+            f"split; got {classes.size} classes with >= {smallest} trials"
+        )
+    out: list[tuple[int, int, int]] = []
+    for shot in dict.fromkeys(min(k, smallest - 1) for k in shots):
+        for way in dict.fromkeys(min(n, classes.size) for n in ways):
+            cell = (shot, way, min(5, smallest - shot))
+            if cell not in out:
+                out.append(cell)
+    return out
+
+
+def _curve(
+    net: EpisodeNet, x: torch.Tensor, batch: EpisodeBatch, lr: float, seed: int
+) -> tuple[list[int], np.ndarray, bool]:
+    """Step counts read and per-episode validation accuracies ``(marks, E)`` of one rate:
+    from :data:`FIRST_MARK`, doubled until a doubling brings no gain in mean accuracy over
+    the best so far (or :data:`MAX_MARK`); while the best is below twice chance (2 / N),
+    only :data:`CHANCE_PATIENCE` doublings in a row without gain end it. All chunks of
+    the batch are trained in lockstep."""
+    gen = torch.Generator().manual_seed(seed)
+    trainers = [
+        (sl, EpisodeTrainer(net, x, batch.support[sl], batch.query[sl], lr=lr, generator=gen))
+        for sl in _chunks(batch.support, net)
+    ]
+    marks: list[int] = []
+    accs: list[np.ndarray] = []
+    mark, best, flat = FIRST_MARK, -1.0, 0
+    while True:
+        pred = np.empty(batch.query.shape, dtype=np.int64)
+        for sl, trainer in trainers:
+            trainer.advance(mark - trainer.steps)
+            pred[sl] = trainer.predict()
+        acc = (pred == batch.query_labels).mean(axis=1)
+        marks.append(mark)
+        accs.append(acc)
+        # A doubling without gain ends the curve once the networks have left chance (a
+        # slow rate's first marks can sit at chance before the accuracy rises), and
+        # :data:`CHANCE_PATIENCE` of them in a row end it in any case.
+        flat = flat + 1 if acc.mean() <= best else 0
+        if flat and (best >= 2.0 / batch.n_way or flat >= CHANCE_PATIENCE):
+            return marks, np.stack(accs), True
+        best = max(best, float(acc.mean()))
+        if mark >= MAX_MARK:
+            return marks, np.stack(accs), False
+        mark *= 2
+
+
+def _ci95(acc: np.ndarray) -> float:
+    return float(1.96 * acc.std() / np.sqrt(acc.size)) if acc.size > 1 else 0.0
+
+
+def choose_setting(curves: Sequence[tuple[float, list[int], np.ndarray]]) -> tuple[float, int]:
+    """``(lr, steps)`` from validation curves ``(lr, marks, per-episode accuracies (marks,
+    E))``: the fewest steps whose mean accuracy lies within the 95 % CI of the best mean
+    (the cheapest training validation cannot tell from the best); among those the highest
+    mean, then the smaller rate."""
+    points = [
+        (float(acc[i].mean()), _ci95(acc[i]), marks[i], lr)
+        for lr, marks, acc in curves
+        for i in range(len(marks))
+    ]
+    best = max(points, key=lambda p: (p[0], -p[2], -p[3]))
+    ok = [p for p in points if p[0] >= best[0] - best[1]]
+    pick = min(ok, key=lambda p: (p[2], -p[0], p[3]))
+    return pick[3], pick[2]
+
+
+def select_schedule(
+    net: EpisodeNet,
+    x: torch.Tensor,
+    labels: np.ndarray,
+    *,
+    seed: int,
+    lrs: Sequence[float],
+    steps: int | None = None,
+    shots: Sequence[int] = VALIDATION_SHOTS,
+    ways: Sequence[int] = VALIDATION_WAYS,
+) -> Schedule:
+    """The :class:`Schedule` of a per-episode network chosen on validation episodes of
+    ``labels`` (the training split; ``x`` its network input): for every validation cell
+    (:func:`validation_cells`) and rate of ``lrs``, the validation curve over step counts
+    (:func:`_curve`, or only ``steps`` when given), then :func:`choose_setting`. The same
+    episodes serve every rate, and every rate's networks start from the same weights."""
+    settings, curves = [], []
+    for i, (shot, way, query) in enumerate(validation_cells(labels, shots, ways)):
+        episodes = min(
+            MAX_VALIDATION_EPISODES,
+            max(MIN_VALIDATION_EPISODES, -(-VALIDATION_QUERIES // (way * query))),
+        )
+        batch = sample_episodes(
+            labels,
+            n_way=way,
+            k_shot=shot,
+            n_query=query,
+            episodes=episodes,
+            seed=_seed_of(seed, 0x5C4E0, i),
+        )
+        cell = []
+        for lr in lrs:
+            if steps is None:
+                marks, acc, plateaued = _curve(net, x, batch, lr, _seed_of(seed, 0x1417))
+            else:
+                pred = train_per_episode(
+                    net, x, batch.support, batch.query, steps=steps, lr=lr, seed=seed
+                )
+                marks, acc, plateaued = [steps], (pred == batch.query_labels).mean(-1)[None], True
+            cell.append((float(lr), marks, acc))
+            curves.append(
+                {
+                    "shot": shot,
+                    "way": way,
+                    "episodes": episodes,
+                    "lr": float(lr),
+                    "steps": marks,
+                    "accuracy": [round(float(a.mean()), 4) for a in acc],
+                    "ci95": [round(_ci95(a), 4) for a in acc],
+                    "plateaued": plateaued,
+                }
+            )
+        lr_, steps_ = choose_setting(cell)
+        settings.append(Setting(shot, way, lr_, steps_))
+    return Schedule(tuple(settings), tuple(curves))
+
+
+def schedule(
+    net: EpisodeNet,
     *,
     steps: int | None,
     lr: float | None,
     inputs: Callable[[], torch.Tensor],
     labels: np.ndarray,
-    train: Callable[..., np.ndarray],
     seed: int,
     lrs: Sequence[float],
-    grid_steps: Sequence[int],
-    episodes: int,
-) -> tuple[float, int, dict | None]:
-    """``(lr, steps, table)`` of a per-episode network: the given values when both are
-    given (no table), otherwise the grid's best on validation episodes of the training
-    labels (:func:`select_steps_lr`; a given value fixes its axis of the grid).
-
-    ``inputs()`` -> the training pool's network input ``(P, ...)``; ``train(x, support,
-    query, steps=, lr=, seed=)`` -> predictions as :func:`train_per_episode` returns them.
-    """
+) -> Schedule:
+    """The given ``steps`` and ``lr`` when both are given, otherwise
+    :func:`select_schedule` on validation episodes of the training ``labels`` (a given
+    value fixes its axis). ``inputs()`` -> the training pool's network input."""
     if steps is not None and lr is not None:
-        return float(lr), int(steps), None
-    x = inputs()
-    batches = validation_episodes(labels, seed=seed, episodes=episodes)
-    return select_steps_lr(
-        lambda b, rate, marks: train(x, b.support, b.query, steps=marks, lr=rate, seed=seed),
-        batches,
-        lrs=lrs if lr is None else (lr,),
-        steps=grid_steps if steps is None else (steps,),
+        return Schedule.fixed(lr, steps)
+    return select_schedule(
+        net, inputs(), labels, seed=seed, lrs=lrs if lr is None else (lr,), steps=steps
     )

@@ -23,14 +23,12 @@ from benchmark.episodes import sample_episodes
 from benchmark.evaluate import evaluate
 from benchmark.protocols.closed_set import split_halves
 from models.features import extract
-from models.registry import METHOD_NAMES, make_method
+from models.registry import DEFAULT_METHODS, make_method
 from tactile_synth.validation import int_arg
 
 #: Learned attributes that record what a method chose on its training split.
 CHOICES = (
-    "lr_",
-    "steps_",
-    "selection_",
+    "schedule_",
     "inner_lr_",
     "lr_probe_",
     "test_steps_",
@@ -47,7 +45,7 @@ CHOICES = (
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=description(__doc__))
     parser.add_argument("--data", required=True)
-    parser.add_argument("--methods", nargs="+", default=list(METHOD_NAMES))
+    parser.add_argument("--methods", nargs="+", default=list(DEFAULT_METHODS))
     parser.add_argument("--episodes", type=int_arg, default=500)
     parser.add_argument("--seed", type=int_arg, default=0)
     args = parser.parse_args(argv)
@@ -87,6 +85,8 @@ def main(argv: list[str] | None = None) -> None:
         for attr in CHOICES:
             value = getattr(model, attr, None)
             if value is not None:
+                if attr == "schedule_":  # the settings; the curves are long
+                    value = [vars(setting) for setting in value.settings]
                 text = np.array2string(value, precision=3) if hasattr(value, "ndim") else value
                 print(f"    {attr}: {text}", flush=True)
 

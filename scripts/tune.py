@@ -25,11 +25,16 @@ from it), mirroring the closed-set protocol inside the training data. Steps, in 
 3. AFOP-ML ``alpha`` (the head's temperature; the paper does not state it): the adapted
    head's validation score; highest mean wins (the first candidate on ties).
 4. Direct-Prot-ML ``alpha``: the same for its head on all 386 features.
-5. AFO-MLP-ML ``meta_lr`` x ``meta_iterations`` (with alpha from step 3): validation
-   score of the adapted MLP + head; the shortest meta-training within the 95 % CI of the
-   best wins (candidates ordered by length, then rate). Then its ``alpha``, each
-   candidate meta-trained anew (alpha also scales the meta-training logits); highest
-   mean wins.
+5. AFO-MLP-ML ``alpha`` (the paper's method: a fresh MLP + head trained per episode):
+   each candidate fitted anew on inner-train (alpha enters the per-episode training, whose
+   steps and rate the fit chooses on its own validation episodes); highest mean wins.
+6. CWT-ResNet-ML ``alpha``: one fit on the inner-train signals (alpha enters only the
+   head); highest mean wins.
+7. AFO-MLP-ML+meta (the variant beyond the paper) ``meta_lr`` x ``meta_iterations`` (with
+   alpha from step 3): validation score of the adapted MLP + head; the shortest
+   meta-training within the 95 % CI of the best wins (candidates ordered by length, then
+   rate). Then its ``alpha``, each candidate meta-trained anew (alpha also scales the
+   meta-training logits); highest mean wins.
 
 Validation columns: 5-way-1-shot, 5-way-5-shot and all-classes-way-1-shot (queries per
 class lowered to what inner-validation holds), ``--episodes`` episodes each, the same
@@ -61,8 +66,9 @@ if str(ROOT) not in sys.path:
 from benchmark.engine import child_seed  # noqa: E402
 from benchmark.evaluate import ci95  # noqa: E402
 from benchmark.protocols.closed_set import split_halves  # noqa: E402
-from models.afo_mlp import AFOMLPML  # noqa: E402
+from models.afo_mlp import AFOMLPML, AFOMLPMLMeta  # noqa: E402
 from models.afop import AFOPML  # noqa: E402
+from models.cwt_resnet import CWTResNetML  # noqa: E402
 from models.direct_prot import DirectProtML  # noqa: E402
 from models.dscan import dscan  # noqa: E402
 from models.episodes import EpisodeBatch, sample_episodes  # noqa: E402
@@ -84,6 +90,7 @@ QUICK = {
     "cv_max_iter": 20,
     "meta_lrs": (1e-3,),
     "meta_iterations": (20, 60),
+    "cwt": {"max_epochs": 2, "val_episodes": 20},
 }
 
 #: Trials per class the data need: a 5-fold CV of the training half, and inner-train /
@@ -231,13 +238,15 @@ def _cached_lambda_cv(
 def tune(
     features: np.ndarray,
     labels: np.ndarray,
+    signals: np.ndarray,
     *,
     seed: int = 0,
     episodes: int = 200,
     quick: bool = False,
     cache: Path | None = None,
 ) -> tuple[dict[str, dict[str, Any]], list[dict[str, Any]]]:
-    """Run every step on the closed-set training half of (features, labels).
+    """Run every step on the closed-set training half of (features, labels, signals)
+    (``signals``: ``(n, 4, T)`` raw trials, for CWT-ResNet-ML).
 
     ``cache``: a directory where the lambda cross-validation (the long step) keeps its
     finished results, so an interrupted run resumes. Returns (chosen values
@@ -252,6 +261,7 @@ def tune(
             "cv_max_iter": CV_MAX_ITER,
             "meta_lrs": META_LRS,
             "meta_iterations": META_ITERATIONS,
+            "cwt": {},
         }
     )
     smallest = int(np.unique(labels, return_counts=True)[1].min())
@@ -267,20 +277,29 @@ def tune(
     i_fit, i_val = split_halves(y_tr, seed=child_seed(seed, "tune-inner"))
     f_fit, y_fit = f_tr[i_fit], y_tr[i_fit]
     f_val, y_val = f_tr[i_val], y_tr[i_val]
+    s_tr = np.asarray(signals)[train]
+    s_fit, s_val = s_tr[i_fit], s_tr[i_val]
     no_signals = np.zeros((len(f_tr), 1, 1), np.float32)  # the feature methods read features
     batches = validation_batches(y_val, episodes, seed)
     columns = _column_names(batches)
-    chosen: dict[str, dict[str, Any]] = {"AFOP-ML": {}, "Direct-Prot-ML": {}, "AFO-MLP-ML": {}}
+    chosen: dict[str, dict[str, Any]] = {
+        "AFOP-ML": {},
+        "Direct-Prot-ML": {},
+        "AFO-MLP-ML": {},
+        "CWT-ResNet-ML": {},
+        "AFO-MLP-ML+meta": {},
+    }
     steps: list[dict[str, Any]] = []
     _log(
         f"training half {len(train)} trials: inner-train {len(i_fit)}, inner-validation "
         f"{len(i_val)}; columns {', '.join(columns)} x {episodes} episodes"
     )
 
-    def predictor(model: Any) -> Callable[[EpisodeBatch], np.ndarray]:
-        return lambda b: model.predict_episodes(
-            no_signals[: len(f_val)], b.support, b.query, features=f_val
-        )
+    def predictor(
+        model: Any, signals: np.ndarray | None = None
+    ) -> Callable[[EpisodeBatch], np.ndarray]:
+        pool = no_signals[: len(f_val)] if signals is None else signals
+        return lambda b: model.predict_episodes(pool, b.support, b.query, features=f_val)
 
     # 1. fscnca lambda by cross-validation on the whole training half.
     t0 = time.perf_counter()
@@ -347,11 +366,16 @@ def tune(
     _log(f"step 2: ncfs_max_iter = {max_iter}")
 
     # 3. AFOP-ML alpha (one fit: alpha only enters the episodic head).
-    def alpha_step(method: str, model_for: Callable[[float], Any], criterion: str) -> float:
+    def alpha_step(
+        method: str,
+        model_for: Callable[[float], Any],
+        criterion: str,
+        signals: np.ndarray | None = None,
+    ) -> float:
         t0 = time.perf_counter()
         st = _step(method, "alpha", RULE_BEST, criterion)
         for a in grids["alphas"]:
-            s, c, cols = score(predictor(model_for(a)), batches)
+            s, c, cols = score(predictor(model_for(a), signals), batches)
             st["candidates"].append(a)
             st["score"].append(s)
             st["ci95"].append(c)
@@ -379,10 +403,33 @@ def tune(
     direct = DirectProtML(seed=seed, alpha=1.0).fit(no_signals[: len(f_fit)], y_fit, features=f_fit)
     chosen["Direct-Prot-ML"]["alpha"] = alpha_step("Direct-Prot-ML", refit_alpha(direct), head)
 
-    # 5. AFO-MLP-ML meta-training (candidates in order of meta-training length), then its
-    # alpha, which also enters meta-training, so every alpha is a new fit.
-    def afo_mlp(lr: float, its: int, alpha: float) -> AFOMLPML:
-        model = AFOMLPML(
+    # 5. AFO-MLP-ML (the paper's): every alpha a new fit (it enters the per-episode training
+    # and the fit's choice of its steps and rate).
+    def afo_mlp_paper(alpha: float) -> AFOMLPML:
+        model = AFOMLPML(seed=seed, alpha=alpha, ncfs_lam_n=lam_n, ncfs_max_iter=max_iter)
+        return model.fit(no_signals[: len(f_fit)], y_fit, features=f_fit)
+
+    chosen["AFO-MLP-ML"]["alpha"] = alpha_step(
+        "AFO-MLP-ML",
+        afo_mlp_paper,
+        "fresh MLP + head trained per episode on inner-validation episodes; each alpha "
+        "fitted anew (its steps and rate chosen by the fit on inner-train)",
+    )
+
+    # 6. CWT-ResNet-ML: one fit on the inner-train signals.
+    cwt = CWTResNetML(seed=seed, alpha=1.0, **grids["cwt"]).fit(s_fit, y_fit)
+    chosen["CWT-ResNet-ML"]["alpha"] = alpha_step(
+        "CWT-ResNet-ML",
+        refit_alpha(cwt),
+        "adapted head on the ResNet embeddings of inner-validation episodes (one fit on "
+        "the inner-train signals; alpha enters only the head)",
+        signals=s_val,
+    )
+
+    # 7. AFO-MLP-ML+meta meta-training (candidates in order of meta-training length), then
+    # its alpha, which also enters meta-training, so every alpha is a new fit.
+    def afo_mlp(lr: float, its: int, alpha: float) -> AFOMLPMLMeta:
+        model = AFOMLPMLMeta(
             seed=seed,
             alpha=alpha,
             meta_lr=lr,
@@ -395,7 +442,7 @@ def tune(
     t0 = time.perf_counter()
     alpha0 = chosen["AFOP-ML"]["alpha"]
     st = _step(
-        "AFO-MLP-ML",
+        "AFO-MLP-ML+meta",
         "meta_lr, meta_iterations",
         RULE_CHEAPEST,
         f"adapted MLP + head on inner-validation episodes, alpha = {alpha0} (AFOP-ML's); "
@@ -408,14 +455,14 @@ def tune(
             st["score"].append(s)
             st["ci95"].append(c)
             st["columns"].append(cols)
-            _log(f"  AFO-MLP-ML meta_lr {lr} meta_iterations {its}: score {s:.4f} ± {c:.4f}")
+            _log(f"  AFO-MLP-ML+meta meta_lr {lr} meta_iterations {its}: score {s:.4f} ± {c:.4f}")
     st["seconds"] = round(time.perf_counter() - t0, 1)
     steps.append(st)
     lr, its = apply_rule(st)
-    chosen["AFO-MLP-ML"]["meta_lr"] = float(lr)
-    chosen["AFO-MLP-ML"]["meta_iterations"] = int(its)
-    chosen["AFO-MLP-ML"]["alpha"] = alpha_step(
-        "AFO-MLP-ML",
+    chosen["AFO-MLP-ML+meta"]["meta_lr"] = float(lr)
+    chosen["AFO-MLP-ML+meta"]["meta_iterations"] = int(its)
+    chosen["AFO-MLP-ML+meta"]["alpha"] = alpha_step(
+        "AFO-MLP-ML+meta",
         lambda a: afo_mlp(lr, its, a),
         "adapted MLP + head on inner-validation episodes; each alpha meta-trained anew",
     )
@@ -452,7 +499,9 @@ def evidence_markdown(meta: dict[str, Any], chosen: dict, steps: list[dict]) -> 
         "Values every method uses that are not tuned here: the paper's head settings "
         "(250 Adam steps, lr 1.5e-3, entropy weight 0.10), the paper's 5-way-5-shot D-scan "
         "validation episodes, the paper's 64/32 MLP widths, fscnca's kernel width 1 and "
-        "initial weights 1; AFO-MLP-ML's 16 tasks per meta-step is a fixed compute budget.",
+        "initial weights 1; AFO-MLP-ML+meta's 16 tasks per meta-step is a fixed compute "
+        "budget. AFO-MLP-ML's per-episode steps and rate, and CWT-ResNet-ML's epochs, are "
+        "chosen inside each fit on its own training data.",
         "",
         "## Chosen values",
         "",
@@ -526,6 +575,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     chosen, steps = tune(
         features,
         data.label,
+        data.signals,
         seed=args.seed,
         episodes=args.episodes,
         quick=args.quick,

@@ -126,7 +126,7 @@ def test_refuses_use_before_fit_and_malformed_episodes(separable):
 
 def test_feature_dim_is_the_embedding_width(separable):
     from benchmark.engine import feature_dim
-    from models.afo_mlp import AFOMLPML
+    from models.afo_mlp import AFOMLPML, AFOMLPMLMeta
 
     data, feats = separable
     train, _ = _halves(data.label)
@@ -134,10 +134,9 @@ def test_feature_dim_is_the_embedding_width(separable):
         data.signals[train], data.label[train], features=feats[train]
     )
     assert feature_dim(afop) == afop.D_
-    mlp = AFOMLPML(meta_iterations=5).fit(
-        data.signals[train], data.label[train], features=feats[train]
-    )
-    assert mlp.D_ != 32 and feature_dim(mlp) == 32  # the projection, not the top-D input
+    for mlp in (AFOMLPML(steps=5, lr=1e-2), AFOMLPMLMeta(meta_iterations=5)):
+        mlp.fit(data.signals[train], data.label[train], features=feats[train])
+        assert mlp.D_ != 32 and feature_dim(mlp) == 32  # the projection, not the top-D input
 
 
 def test_single_episode_latency_adapts_each_episode_alone(separable):

@@ -1,28 +1,31 @@
-"""The six baselines behind the one interface: above chance on easy data, at chance on
-label-shuffled data, deterministic, no leaks, malformed episodes rejected."""
+"""The six baselines and the variants behind the one interface: above chance on easy data,
+at chance on label-shuffled data, deterministic, no leaks, malformed episodes rejected."""
 
 from __future__ import annotations
+
+import re
 
 import numpy as np
 import pytest
 
 from benchmark.episodes import sample_episodes
 from benchmark.evaluate import evaluate
-from models import cnn, maml
+from models import cnn, maml, nets
 from models.features import extract
-from models.registry import METHOD_NAMES, make_method
+from models.registry import METHOD_NAMES, VARIANT_NAMES, make_method
 from tests.synthetic_data import make_dataset
 
 # Small settings: these tests check behaviour, not the paper's budgets.
 FAST = {
-    "AFO-MLP-ML": dict(meta_iterations=40, adapt_steps=20),
+    "AFO-MLP-ML": dict(steps=20, lr=5e-3),
+    "AFO-MLP-ML+meta": dict(meta_iterations=40, adapt_steps=20),
     "Direct-Prot-ML": dict(steps=50),
     "MAML": dict(max_iterations=40, eval_every=20, val_episodes=10, inner_lr=0.1, test_steps=10),
     "CWT-ResNet-ML": dict(max_epochs=4, steps=50, val_episodes=20),
     "CNN": dict(steps=30, lr=1e-2),
     "BiLSTM": dict(steps=30, lr=1e-2),
 }
-BASELINES = [m for m in METHOD_NAMES if m != "AFOP-ML"]
+BASELINES = [m for m in (*METHOD_NAMES, *VARIANT_NAMES) if m != "AFOP-ML"]
 
 
 @pytest.fixture(scope="module")
@@ -56,13 +59,16 @@ def test_every_paper_method_is_registered():
         ("AFOP-ML", {"alpha": -1.0}, "alpha"),
         ("AFOP-ML", {"steps": -1}, "steps"),
         ("AFOP-ML", {"dscan_episodes": 0}, "dscan_episodes"),
-        ("AFO-MLP-ML", {"meta_iterations": 0}, "meta_iterations"),
+        ("AFO-MLP-ML", {"steps": 0}, "steps"),
         ("AFO-MLP-ML", {"lam": -0.1}, "lam"),
+        ("AFO-MLP-ML+meta", {"meta_iterations": 0}, "meta_iterations"),
+        ("AFO-MLP-ML+meta", {"lam": -0.1}, "lam"),
         ("Direct-Prot-ML", {"lr": float("nan")}, "lr"),
         ("CNN", {"steps": 0}, "steps"),
         ("BiLSTM", {"steps": "10"}, "steps"),
         ("CWT-ResNet-ML", {"max_epochs": 0}, "max_epochs"),
         ("CWT-ResNet-ML", {"batch": 2.5}, "batch"),
+        ("CWT-ResNet-ML", {"arch": "vgg"}, "arch"),
         ("MAML", {"lr_probe": -5}, "lr_probe"),
         ("MAML", {"eval_every": 0}, "eval_every"),
         ("MAML", {"inner_lr": True}, "inner_lr"),
@@ -72,9 +78,9 @@ def test_every_paper_method_is_registered():
 def test_bad_settings_fail_at_construction_naming_the_setting(name, settings, arg):
     """A method checks its settings when built, with one line naming the method and the
     setting, not deep inside ``fit``; settings left None are chosen on training data."""
-    with pytest.raises(ValueError, match=f"^{name}: {arg} must be"):
+    with pytest.raises(ValueError, match=f"^{re.escape(name)}: {arg} must be"):
         make_method(name, **settings)
-    if name in ("CNN", "BiLSTM", "MAML"):
+    if name in ("CNN", "BiLSTM", "MAML", "AFO-MLP-ML"):
         make_method(name, **{k: None for k in ("steps", "lr", "inner_lr") if k in settings})
 
 
@@ -117,20 +123,46 @@ def test_deterministic_no_leak_and_rejects_malformed_support(name, easy):
         a.predict_episodes(sig, dup, batch.query)
 
 
-def test_raw_signal_baselines_choose_their_settings_on_training_data(easy):
-    """Without given values, CNN and BiLSTM pick lr and steps on validation episodes of the
-    training split, MAML picks its inner rate and test steps and stops early on held-out
+def test_raw_signal_baselines_choose_their_settings_on_training_data(easy, monkeypatch):
+    """Without given values, CNN and BiLSTM pick a rate and a step count per validated shot
+    and way on validation episodes of the training split, each curve read until a doubling
+    brings no gain; MAML picks its inner rate and test steps and stops early on held-out
     training classes; each records the evidence."""
     data, _ = easy
     train, _ = _split(data.label)
     sig, lab = data.signals[train], data.label[train]
+    monkeypatch.setattr(nets, "VALIDATION_QUERIES", 100)  # fewer episodes: a faster test
     for name in ("CNN", "BiLSTM"):
         m = make_method(name, seed=1).fit(sig, lab)
-        assert m.lr_ in cnn.LRS and m.steps_ in cnn.STEPS
-        acc = np.asarray(m.selection_["accuracy"])
-        assert acc.shape == (len(cnn.LRS), len(cnn.STEPS))
-        i, j = cnn.LRS.index(m.lr_), cnn.STEPS.index(m.steps_)
-        assert acc[i, j] == acc.max()
+        # 15 training classes of 3 trials: shots lowered to 2 (one query), 36 ways to 15.
+        cells = nets.validation_cells(lab)
+        assert cells == [(k, n, 3 - k) for k in (1, 2) for n in (5, 12, 15)]
+        assert [(c.shot, c.way) for c in m.schedule_.settings] == [(k, n) for k, n, _ in cells]
+        for setting in m.schedule_.settings:
+            curves = [
+                c
+                for c in m.schedule_.curves
+                if (c["shot"], c["way"]) == (setting.shot, setting.way)
+            ]
+            assert [c["lr"] for c in curves] == list(cnn.LRS)
+            for c in curves:
+                # Doubling step counts from 5, until the first without a gain (or the bound).
+                assert c["steps"] == [5 * 2**i for i in range(len(c["steps"]))]
+                acc = c["accuracy"]
+                if c["plateaued"]:  # the last doubling brought no gain, after leaving
+                    # chance or as the third in a row
+                    assert acc[-1] <= max(acc[:-1])
+                    flat = len(acc) >= 4 and all(a <= max(acc[:-3]) for a in acc[-3:])
+                    assert max(acc[:-1]) >= 2 / c["way"] or flat
+            # The setting: the fewest steps within the 95 % CI of the best accuracy.
+            points = [
+                (a, ci, st, c["lr"])
+                for c in curves
+                for a, ci, st in zip(c["accuracy"], c["ci95"], c["steps"], strict=True)
+            ]
+            best = max(points, key=lambda p: (p[0], -p[2]))
+            ok = [p for p in points if p[0] >= best[0] - best[1] - 1e-4]
+            assert setting.steps == min(p[2] for p in ok)
     m = make_method("MAML", seed=1, max_iterations=80, eval_every=20, lr_probe=40, patience=1)
     m.fit(sig, lab)
     curve = m.meta_curve_

@@ -12,7 +12,7 @@ import benchmark.run as run_mod
 from benchmark import engine
 from benchmark.budget import Budget
 from benchmark.engine import Features
-from benchmark.interpret import analyse, tsne_embedding, tsne_indicators
+from benchmark.interpret import analyse, dgi_random, indicators, standardise, tsne_embedding
 from benchmark.protocols.closed_set import fit_seed
 from benchmark.report import strip_timing
 from benchmark.results import select, selection_record
@@ -58,8 +58,8 @@ def test_one_fit_of_the_closed_set_half_feeds_selection_dscan_tsne_and_reference
     fits: list = []
     make = engine.make_method
 
-    def logging_make(name, seed=0):
-        method = make(name, seed=seed)
+    def logging_make(name, seed=0, **options):
+        method = make(name, seed=seed, **options)
         fit = method.fit
 
         def logged(signals, labels, **kw):
@@ -90,15 +90,25 @@ def test_one_fit_of_the_closed_set_half_feeds_selection_dscan_tsne_and_reference
     assert scan["D"] == np.asarray(model.dscan_["D"]).tolist()
     assert scan["mean"] == np.asarray(model.dscan_["mean"]).tolist()
     assert scan["ci95"] == np.asarray(model.dscan_["ci95"]).tolist()
-    # The t-SNE embeds the closed-set test half in that fit's top-D features.
+    # The indicators describe the closed-set test half in that fit's top-D features, and
+    # (embedding_*) its t-SNE embedding.
     feats = Features().of(data)[test][:, model.selected_]
-    ind = tsne_indicators(tsne_embedding(feats, seed=SEED), data.shape[test], data.material[test])
+    shape, material = data.shape[test], data.material[test]
+    space = indicators(standardise(feats), shape, material)
+    flat = indicators(tsne_embedding(feats, seed=SEED), shape, material)
     (tsne,) = select(records, "tsne")
-    assert (tsne["nn1_shape_accuracy"], tsne["mix_sil"], tsne["dgi"]) == (
-        ind.nn1_shape_accuracy,
-        ind.mix_sil,
-        ind.dgi,
+    assert (tsne["nn1_shape_accuracy"], tsne["mix_sil"], tsne["dgi"], tsne["dgi_k"]) == (
+        space.nn1_shape_accuracy,
+        space.mix_sil,
+        space.dgi,
+        space.dgi_k,
     )
+    assert (
+        tsne["embedding_nn1_shape_accuracy"],
+        tsne["embedding_mix_sil"],
+        tsne["embedding_dgi"],
+    ) == (flat.nn1_shape_accuracy, flat.mix_sil, flat.dgi)
+    assert tsne["dgi_random"] == dgi_random(shape, material)
     report = (tmp_path / "report.md").read_text()
     assert f"chosen D = {d}." in report and f"AFOP-ML's top-{d} feature space" in report
 

@@ -75,8 +75,10 @@ MAX_GAP = {"MAML": 0.4, "CNN": 0.12, "BiLSTM": 0.12, "CWT-ResNet-ML": 0.12}
 @pytest.mark.parametrize("name", list(SETTINGS))
 def test_high_band_tones_recognised_as_well_as_low_band(name):
     """Chance is 0.2 (500 queries per band: standard error about 0.02). Over seeds 0-9 the
-    high band scored at least 0.76 (CNN), 0.99 (BiLSTM), 0.95 (CWT-ResNet-ML) and 0.32
-    (MAML, seeds 0-8), and fell short of the low band by at most 0.00, 0.00, 0.04 and 0.33."""
+    high band scored at least 0.76 (CNN), 0.99 (BiLSTM) and 0.32 (MAML, seeds 0-8), and
+    fell short of the low band by at most 0.00, 0.00 and 0.33; CWT-ResNet-ML, trained
+    again on all training tones for its chosen epoch count, at least 0.96 over seeds 0-4,
+    at most 0.02 short of the low band."""
     acc = band_accuracy(name, seed=0)
     assert acc["high"] > 0.3, acc
     assert acc["high"] > acc["low"] - MAX_GAP[name], acc

@@ -183,7 +183,20 @@ def test_perturbation_fits_on_nominal_training_half(data, spy):
     assert not fits[0]["rows"] & _row_keys(both.signals)
     acc = select(records, "accuracy")
     per_condition = {condition_name(1.4, 6.0), condition_name(0.6, 14.0)}
-    assert {r["condition"] for r in acc} == {*per_condition, "pooled", "within-condition"}
+    enrolled = {f"enrolled:{c}" for c in per_condition}
+    assert {r["condition"] for r in acc} == {
+        *per_condition,
+        "pooled",
+        "within-condition",
+        *enrolled,
+        "enrolled",
+    }
+    # The enrolled reading's pools hold nominal test-half trials (its support) beside
+    # perturbed ones (its queries); no pool holds a trial the method was fitted on.
+    test_rows = _row_keys(data.signals[_test_idx])
+    pools = [e["rows"] for e in spy.log if e["op"] == "predict"]
+    assert any(rows & test_rows and rows & _row_keys(both.signals) for rows in pools)
+    assert not any(rows & fits[0]["rows"] for rows in pools)
     # The within-condition summary holds every condition's episodes: their total, and
     # (equal budgets) the mean of the conditions' accuracies; the pooled one is separate.
     within = [r for r in acc if r["condition"] == "within-condition"]

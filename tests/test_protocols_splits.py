@@ -6,12 +6,15 @@ import numpy as np
 import pytest
 
 from benchmark.interpret import (
-    geometric_impostor_ratio,
+    DGI_K,
+    dgi,
+    dgi_random,
+    indicators,
     mixing_silhouette,
+    nearest_neighbours,
     nn1_accuracy,
     sensor_shares,
     tsne_embedding,
-    tsne_indicators,
 )
 from benchmark.splits import (
     CROSS_SHAPE_FOLDS,
@@ -112,38 +115,62 @@ def _clusters(mixed: bool, seed: int = 0, per: int = 5):
 
 
 def test_indicators_on_mixed_clusters():
-    emb, shp, mat = _clusters(mixed=True)
-    ind = tsne_indicators(emb, shp, mat)
-    assert ind.nn1_shape_accuracy == 1.0
+    emb, shp, mat = _clusters(mixed=True, per=12)
+    ind = indicators(emb, shp, mat)
+    assert ind.nn1_shape_accuracy == 1.0 and ind.dgi_k == DGI_K
     assert ind.mix_sil > 0.8
-    # Shape clusters ~100 apart, within-cluster spacing ~1: twins far nearer than impostors.
-    assert ind.dgi > 10.0
+    # Materials mixed at random inside compact shape clusters: the DGI lies near what
+    # random mixing gives (2n/(n-1) = 24/11 with n = 12 per class), far from 0.
+    assert dgi_random(shp, mat) == pytest.approx(24 / 11)
+    assert 1.5 < ind.dgi < 3.0
 
 
 def test_indicators_on_separated_materials():
     emb, shp, mat = _clusters(mixed=False, per=12)
     assert nn1_accuracy(emb, shp) == 1.0
     assert mixing_silhouette(emb, shp, mat) < 0.4
-    # Material sub-clusters 6 apart inside shape clusters ~100 apart: DGI still > 1 (it
-    # compares materials with geometry); mix-sil is the indicator that sees sub-clusters.
-    assert geometric_impostor_ratio(emb, shp, mat) > 5.0
+    # Material sub-clusters 6 apart (noise sd 1) inside shape clusters ~100 apart: nearly
+    # every one of a trial's 10 nearest neighbours is among the 11 others of its class, so
+    # the DGI lies near 0, far below random mixing's 24/11.
+    assert dgi(emb, shp, mat) < 0.1
+
+
+def _ring(per_shape: int, shapes: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each shape a ring of ``per_shape`` equally spaced points (shapes far apart), the
+    materials going round a, b, c, a, b, c, ..."""
+    pts, shp, mat = [], [], []
+    for s in range(shapes):
+        for i in range(per_shape):
+            angle = 2 * np.pi * i / per_shape
+            pts.append([1000.0 * s + np.cos(angle), np.sin(angle)])
+            shp.append(f"S{s}")
+            mat.append("abc"[i % 3])
+    return np.array(pts), np.array(shp), np.array(mat)
 
 
 def test_dgi_known_answers():
-    # A line: shape A at 0 (resin) and 1 (wood), shape B at 3 (resin) and 4 (wood). Every
-    # trial's other-material twin is 1 away, its impostor 3 away: DGI = 3 exactly.
-    emb = np.array([[0.0, 0.0], [1.0, 0.0], [3.0, 0.0], [4.0, 0.0]])
-    shp = np.array(["A", "A", "B", "B"])
-    mat = np.array(["resin", "wood", "resin", "wood"])
-    assert geometric_impostor_ratio(emb, shp, mat) == pytest.approx(3.0)
-    # Swapping the roles of shape and material inverts it; scaling leaves it unchanged.
-    assert geometric_impostor_ratio(emb, mat, shp) == pytest.approx(1 / 3)
-    assert geometric_impostor_ratio(7.5 * emb, shp, mat) == pytest.approx(3.0)
-    # Material-organised space (3 material clusters, shapes mixed inside): DGI < 1.
-    emb2, shp2, mat2 = _clusters(mixed=True)
-    assert geometric_impostor_ratio(emb2, mat2, shp2) < 0.2
-    # No trial has both kinds of neighbour: undefined.
-    assert np.isnan(geometric_impostor_ratio(emb[:2], shp[:2], np.array(["r", "r"])))
+    # On a ring with the materials going round a, b, c: a point's 2 nearest neighbours
+    # (i +- 1) are of other materials, the next 2 (i +- 2) too, the next 2 (i +- 3) of
+    # its own: k = 2 or 4 gives no same-material edge (inf), k = 6 gives 4 / 2 = 2.
+    pts, shp, mat = _ring(30)
+    assert dgi(pts, shp, mat, k=4) == np.inf
+    assert dgi(pts, shp, mat, k=6) == pytest.approx(2.0)
+    # k = 8: i +- 1, 2, 4 cross, i +- 3 same: 6 / 2 = 3.
+    assert dgi(pts, shp, mat, k=8) == pytest.approx(3.0)
+    # Scaling or moving the points changes no neighbour.
+    assert dgi(7.5 * pts + 3.0, shp, mat, k=6) == pytest.approx(2.0)
+    # The materials grouped on the ring (a run of 10 of each): in a run, the points 0, 1, 2
+    # places from its ends have 3, 2, 1 neighbours across the end: 12 cross edges per run,
+    # 36 of a ring's 180: DGI = 36 / 144.
+    grouped = np.array(["abc"[i // 10] for i in range(30)] * 2)
+    assert dgi(pts, shp, grouped, k=6) == pytest.approx(0.25)
+    assert nearest_neighbours(pts, 2)[0].tolist() == [1, 29]  # ties: the lower index first
+    # No same-shape neighbour at all: undefined; one material only: no cross edge.
+    lone = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]])
+    assert np.isnan(dgi(lone, np.array(["A", "B", "C"]), np.array(["a", "a", "a"]), k=1))
+    assert dgi(pts, shp, np.array(["a"] * 60), k=6) == 0.0
+    with pytest.raises(ValueError, match="k must be below"):
+        dgi(lone, np.array(["A", "A", "A"]), np.array(["a", "b", "c"]), k=3)
 
 
 def test_tsne_is_deterministic_and_keeps_clusters():

@@ -11,8 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from models.afo_mlp import AFOMLPML
+from models.afo_mlp import AFOMLPML, AFOMLPMLMeta
 from models.afop import AFOPML
+from models.cwt_resnet import CWTResNetML
 from models.direct_prot import DirectProtML
 from models.tuned import TUNED_FILE, tuned_values
 
@@ -56,15 +57,19 @@ def test_methods_use_the_tuned_values_by_default():
         v["AFOP-ML"]["ncfs_max_iter"],
     )
     assert DirectProtML().alpha == v["Direct-Prot-ML"]["alpha"]
-    m = AFOMLPML()
+    assert AFOMLPML().alpha == v["AFO-MLP-ML"]["alpha"]
+    assert CWTResNetML().alpha == v["CWT-ResNet-ML"]["alpha"]
+    m = AFOMLPMLMeta()
     assert (m.alpha, m.meta_lr, m.meta_iterations) == (
-        v["AFO-MLP-ML"]["alpha"],
-        v["AFO-MLP-ML"]["meta_lr"],
-        v["AFO-MLP-ML"]["meta_iterations"],
+        v["AFO-MLP-ML+meta"]["alpha"],
+        v["AFO-MLP-ML+meta"]["meta_lr"],
+        v["AFO-MLP-ML+meta"]["meta_iterations"],
     )
-    # The paper's values are not tuned: the head's 250 steps at lr 1.5e-3 for both heads.
+    # The paper's values are not tuned: the head's 250 steps at lr 1.5e-3 for both heads,
+    # entropy weight 0.10 for every head.
     assert (a.steps, a.lr, a.lam) == (250, 1.5e-3, 0.10)
     assert (m.adapt_steps, m.adapt_lr, m.lam) == (250, 1.5e-3, 0.10)
+    assert AFOMLPML().lam == CWTResNetML().lam == 0.10
 
 
 def test_selection_rules():
@@ -92,11 +97,13 @@ def test_tune_runs_on_training_data_only(tmp_path):
     # Poison the test half: if any step read it, the scores would change.
     poisoned = feats.copy()
     poisoned[test] = np.random.default_rng(0).standard_normal(poisoned[test].shape) * 1e3
+    signals = data.signals.copy()
+    signals[test] = np.random.default_rng(1).standard_normal(signals[test].shape) * 1e3
     before = torch.get_num_threads()
     torch.set_num_threads(1)
     try:
-        a = tune.tune(feats, data.label, seed=0, episodes=20, quick=True)
-        b = tune.tune(poisoned, data.label, seed=0, episodes=20, quick=True)
+        a = tune.tune(feats, data.label, data.signals, seed=0, episodes=20, quick=True)
+        b = tune.tune(poisoned, data.label, signals, seed=0, episodes=20, quick=True)
     finally:
         torch.set_num_threads(before)
 
@@ -106,6 +113,12 @@ def test_tune_runs_on_training_data_only(tmp_path):
 
     assert untimed(a) == untimed(b)
     chosen, steps = a
-    assert set(chosen) == {"AFOP-ML", "Direct-Prot-ML", "AFO-MLP-ML"}
+    assert set(chosen) == {
+        "AFOP-ML",
+        "Direct-Prot-ML",
+        "AFO-MLP-ML",
+        "CWT-ResNet-ML",
+        "AFO-MLP-ML+meta",
+    }
     assert set(chosen["AFOP-ML"]) == {"ncfs_lam_n", "ncfs_max_iter", "alpha"}
     assert all(tune.apply_rule(st) is not None for st in steps)

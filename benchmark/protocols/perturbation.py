@@ -1,17 +1,31 @@
-"""Force/speed perturbation (paper Section V-C, Fig. 5c) and the robustness heat map.
+"""Force/speed perturbation (paper Section V-C, Fig. 5c) and the robustness heat maps.
 
 Every method is fitted once on the nominal dataset's closed-set training half (the
 closed-set protocol's split and fit seed, reused: the paper trains "at nominal force and
 speed on the original training set"), then evaluated N-way-1-shot (N = 2..12) on the
-perturbation dataset: per force/speed combination (``condition="force=1.4N,speed=6mm/s"``)
-and on all its trials together (``condition="pooled"``: an episode's support and queries
-may come from different conditions). The engine adds the across-condition summary
-(``condition="within-condition"``: every condition's episodes together, each within one
-condition), the reading of the paper's "testing on multiple perturbed force-speed
-combinations" that the report sets beside the paper's figure. The 5-way-1-shot
-per-condition records form the force x speed heat map. ``fold`` is null. One AFOP-ML
-selection record (the nominal fit). Its tasks carry the closed-set task's fit key, so a
-command that runs both protocols fits each method once for the two.
+perturbation dataset. The paper's "testing on multiple perturbed force-speed
+combinations" allows more than one reading of where an episode's support and queries
+come from; all three are run, side by side, none promoted:
+
+- **within condition**: per force/speed combination
+  (``condition="force=1.4N,speed=6mm/s"``), support and queries from that combination;
+  the engine adds the across-condition summary ``condition="within-condition"`` (every
+  combination's episodes together);
+- **pooled**: all the perturbation dataset's trials as one test pool
+  (``condition="pooled"``): an episode's support and queries may come from different
+  combinations;
+- **enrolled at nominal**: the deployment reading, a class enrolled at the nominal
+  condition and recognised under perturbation: the support examples come from the
+  nominal dataset's closed-set test half (trials no method was fitted on), the queries
+  from one perturbed combination, classes matched by name
+  (``condition="enrolled:force=1.4N,speed=6mm/s"``, the engine's enrolment tasks:
+  :attr:`benchmark.engine.Task.support`); the engine adds ``condition="enrolled"`` over
+  every combination's episodes together.
+
+The 5-way-1-shot per-combination records form the force x speed heat maps (within
+condition, and enrolled at nominal). ``fold`` is null. One AFOP-ML selection record (the
+nominal fit). Its tasks carry the closed-set task's fit key, so a command that runs both
+protocols fits each method once for the two.
 
 The "Force&Speed" D of this protocol (paper Fig. 6) is therefore the closed-set D: the fit
 is the closed-set fit, and its D-scan sees only nominal training trials (drawing
@@ -26,7 +40,7 @@ import numpy as np
 from synth import Dataset
 
 from ..budget import EpisodeBudget
-from ..engine import Pool, Protocol, Task, n_query_for
+from ..engine import READING_SEPARATOR, WITHIN_CONDITION, Pool, Protocol, Task, n_query_for
 from ..guards import check_perturbation_pair
 from ..splits import condition_name, split_halves
 from .closed_set import FIT_KEY, fit_seed
@@ -34,6 +48,15 @@ from .curves import SHOT, WAYS, curve_grid
 
 PROTOCOL = "perturbation"
 POOLED = "pooled"
+#: The enrolment reading's name: its per-combination records are
+#: ``"enrolled:<combination>"``, its summary ``"enrolled"``.
+ENROLLED = "enrolled"
+#: The summaries of the three readings, in the order the report lists them.
+READINGS: tuple[tuple[str, str], ...] = (
+    (WITHIN_CONDITION, "support and queries within one force/speed condition"),
+    (POOLED, "support and queries drawn from all conditions' trials together"),
+    (ENROLLED, "support from the nominal test half, queries from one perturbed condition"),
+)
 
 
 def conditions(perturbed: Dataset) -> list[tuple[float, float]]:
@@ -69,11 +92,13 @@ class Perturbation(Protocol):
     def tasks(
         self, data: Dataset, perturbed: Dataset | None, *, seed: int, episodes: EpisodeBudget
     ) -> list[Task]:
-        """One task per force/speed condition, then the pooled one; all share one fit."""
+        """One task per force/speed condition, the pooled one, then one enrolment task per
+        condition; all share one fit."""
         if perturbed is None or len(perturbed) == 0:
             raise ValueError("the perturbation protocol needs a non-empty perturbed dataset")
         check_perturbation_pair(data, perturbed, seeds=False)
-        fit = Pool(data, split_halves(data.label, seed=seed)[0])
+        train, nominal_test = split_halves(data.label, seed=seed)
+        fit = Pool(data, train)
         tests = [
             (
                 condition_name(f, s),
@@ -81,9 +106,10 @@ class Perturbation(Protocol):
             )
             for f, s in conditions(perturbed)
         ]
+        per_condition = list(tests)
         tests.append((POOLED, np.arange(len(perturbed))))
         _check_episodes_fit(perturbed, [idx for _, idx in tests])
-        return [
+        tasks = [
             Task(
                 protocol=PROTOCOL,
                 fold=None,
@@ -97,3 +123,20 @@ class Perturbation(Protocol):
             )
             for i, (condition, idx) in enumerate(tests)
         ]
+        enrolment = Pool(data, nominal_test)
+        tasks += [
+            Task(
+                protocol=PROTOCOL,
+                fold=None,
+                condition=f"{ENROLLED}{READING_SEPARATOR}{condition}",
+                fit=fit,
+                test=Pool(perturbed, idx),
+                grid=curve_grid(seed, PROTOCOL, len(tests) + i),
+                episodes=episodes,
+                fit_seed=fit_seed(seed),
+                fit_key=FIT_KEY,
+                support=enrolment,
+            )
+            for i, (condition, idx) in enumerate(per_condition)
+        ]
+        return tasks
