@@ -4,13 +4,14 @@
 from __future__ import annotations
 
 import argparse
-import shlex
 import sys
-from collections.abc import Sequence
 
 from tactile_synth.interrupts import terminate_as_interrupt
 from tactile_synth.threads import HELP as THREADS_HELP
 from tactile_synth.validation import int_arg
+
+from .cli_options import OPTION_HELP, again_command, check_methods_arg, methods_help
+from .stress import cli as stress_cli
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -18,41 +19,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     _register_benchmark(subparsers)
     _register_run(subparsers)
     _register_diagnose(subparsers)
-
-
-METHODS_HELP = (
-    "methods to evaluate: the paper's methods ({builtin}), the variants beyond the paper "
-    "({variants}), names of installed plug-ins (entry point group tactile_synth.methods), "
-    "or module:Class / path/to/file.py:Class of a FewShotMethod subclass "
-    "(docs/methods.md); default: {default}"
-)
-OPTION_HELP = (
-    "METHOD:NAME=VALUE: build METHOD with its constructor option NAME set to VALUE (a "
-    "JSON literal such as 10, 1e-3, true, or else text such as a path), e.g. "
-    "CWT-ResNet-ML:weights=resnet18.pth to start CWT-ResNet-ML from a torchvision "
-    "ResNet-18 state dict; repeatable (docs/methods.md)"
-)
-
-
-def _methods_help(default: str) -> str:
-    from models.registry import METHOD_NAMES, VARIANT_NAMES
-
-    return METHODS_HELP.format(
-        builtin=", ".join(METHOD_NAMES), variants=", ".join(VARIANT_NAMES), default=default
-    )
-
-
-def _check_methods_arg(
-    methods: list[str] | None, options: list[str] | None, default: Sequence[str]
-) -> dict[str, dict[str, object]]:
-    """Fail fast, naming --methods or --method-option, on a method that cannot be found
-    or is no FewShotMethod, or an option it does not take (before any dataset is read or
-    generated); returns the checked options. ``default``: the methods run without
-    --methods."""
-    from models.registry import check_methods, options_from_args
-
-    chosen = default if methods is None else check_methods(methods, arg="--methods")
-    return options_from_args(options, chosen)
+    stress_cli.register(subparsers)
 
 
 def _register_benchmark(subparsers: argparse._SubParsersAction) -> None:
@@ -85,7 +52,7 @@ def _register_benchmark(subparsers: argparse._SubParsersAction) -> None:
         nargs="+",
         default=None,
         metavar="NAME",
-        help=_methods_help("the paper's seven methods, then the variants"),
+        help=methods_help("the paper's seven methods, then the variants"),
     )
     p.add_argument(
         "--method-option",
@@ -112,23 +79,54 @@ def _register_benchmark(subparsers: argparse._SubParsersAction) -> None:
         "usable CPU; 1: all in this process)",
     )
     p.add_argument("--threads", type=int_arg, metavar="N", help=THREADS_HELP)
+    stress = p.add_argument_group(
+        "benchmark stress", "the robustness suite on existing test sets (docs/stress.md)"
+    )
+    stress.add_argument(
+        "--stress-data",
+        metavar="DIR",
+        help="(stress) the directory holding the suite's test sets, as `tactile-synth stress` "
+        "writes them into its DIR/data/stress",
+    )
+    stress_cli.add_suite_options(stress, prefix="(stress) ")
     p.set_defaults(handler=_benchmark)
 
 
-def _again(args: argparse.Namespace, fallback: list[str]) -> str:
-    """The command line that continues an interrupted ``args``: the same one without
-    --overwrite (the interrupted run marked its DIR; --overwrite would start the finished
-    protocols over)."""
-    argv = getattr(args, "argv", None) or fallback
-    return shlex.join(a for a in argv if a != "--overwrite")
-
-
 def _benchmark(args: argparse.Namespace) -> int:
-    from models.registry import DEFAULT_METHODS
+    from models.registry import DEFAULT_METHODS, METHOD_NAMES
 
     from .single import benchmark_protocol
 
-    options = _check_methods_arg(args.methods, args.method_option, DEFAULT_METHODS)
+    if args.protocol == "stress":
+        from .stress.command import run_stress
+
+        if args.stress_data is None:
+            raise ValueError(
+                "benchmark stress needs --stress-data DIR (the test sets `tactile-synth stress` "
+                "simulated); `tactile-synth stress` simulates them"
+            )
+        options = check_methods_arg(args.methods, args.method_option, METHOD_NAMES)
+        with terminate_as_interrupt():
+            run_stress(
+                args.out,
+                data=args.data,
+                stress_data=args.stress_data,
+                methods=args.methods,
+                families=args.families,
+                severities=args.severities,
+                episodes=args.episodes,
+                reference=args.reference,
+                way=args.way,
+                shot=args.shot,
+                seed=args.seed,
+                workers=args.workers,
+                overwrite=args.overwrite,
+                options=options,
+            )
+        print(f"wrote {args.out}/results.json and {args.out}/stress.md")
+        return 0
+
+    options = check_methods_arg(args.methods, args.method_option, DEFAULT_METHODS)
     try:
         with terminate_as_interrupt():
             benchmark_protocol(
@@ -144,7 +142,7 @@ def _benchmark(args: argparse.Namespace) -> int:
                 options=options,
             )
     except KeyboardInterrupt:
-        again = _again(args, ["benchmark", args.protocol, "--out", str(args.out)])
+        again = again_command(args, ["benchmark", args.protocol, "--out", str(args.out)])
         print(
             f"tactile-synth benchmark: interrupted; the outputs in {args.out} are as they were "
             f"and the protocols and fits finished are kept in {args.out}/checkpoints: "
@@ -184,7 +182,7 @@ def _register_run(subparsers: argparse._SubParsersAction) -> None:
         nargs="+",
         default=None,
         metavar="NAME",
-        help=_methods_help(
+        help=methods_help(
             "the paper's seven, then the variants, or three with --quick; must include AFOP-ML"
         ),
     )
@@ -224,7 +222,7 @@ def _run(args: argparse.Namespace) -> int:
     from .run import run
 
     default = QUICK_METHODS if args.quick else DEFAULT_METHODS
-    options = _check_methods_arg(args.methods, args.method_option, default)
+    options = check_methods_arg(args.methods, args.method_option, default)
     try:
         with terminate_as_interrupt():
             run(
@@ -240,7 +238,7 @@ def _run(args: argparse.Namespace) -> int:
                 options=options,
             )
     except KeyboardInterrupt:
-        again = _again(args, ["run", "--out", str(args.out)])
+        again = again_command(args, ["run", "--out", str(args.out)])
         print(
             f"tactile-synth run: interrupted; the finished datasets, protocols and fits in "
             f"{args.out} are kept: `tactile-synth {again}` continues from them (only the fits "

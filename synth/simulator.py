@@ -317,7 +317,13 @@ def _whole_periods(steps: int, period: int) -> int:
 def _check_on_plate(spec: TrialSpec, x_ref: np.ndarray, y_ref: np.ndarray, radius: float) -> None:
     x_lim = SPECIMEN.base_length_m / 2 - radius / 2
     y_lim = SPECIMEN.base_width_m / 2 - radius / 2
-    if np.abs(x_ref).max() > x_lim or np.abs(y_ref).max() > y_lim:
+    if np.abs(y_ref).max() > y_lim:
+        raise ValueError(
+            f"the path of {spec.shape} runs {np.abs(y_ref).max() * 1e3:.1f} mm across the "
+            f"plate's centre line, beyond the {SPECIMEN.base_width_m * 1e3:.0f} mm wide plate "
+            f"(less the pad's half radius): turn or offset the path less"
+        )
+    if np.abs(x_ref).max() > x_lim:
         span_mm = (x_ref.max() - x_ref.min()) * 1e3
         raise ValueError(
             f"speed_mm_s={spec.speed_mm_s!r} makes the finger travel {span_mm:.0f} mm, beyond "

@@ -59,12 +59,13 @@ def test_physical_families_change_the_simulated_physics_as_they_say(seed):
     turned = _simulate("yaw", 30.0, seed=seed)
     slope = np.polyfit(turned.truth["finger_x_m"], turned.truth["finger_y_m"], 1)[0]
     assert math.degrees(math.atan(slope)) == pytest.approx(30.0, abs=0.5)
-    # offset: the rhombus' chord along the path shrinks by its diagonal's 16 / 5.5 per mm
-    a = _simulate("offset", 0.0, "rhombus", seed=seed)
-    b = _simulate("offset", 2.0, "rhombus", seed=seed)
+    # offset: towards the apex's other side, the triangle's chord along the path grows by
+    # its side over its height, 16 / 13.86 mm per mm
+    a = _simulate("offset", 0.0, "triangle", seed=seed)
+    b = _simulate("offset", 4.0, "triangle", seed=seed)
     shift = np.mean(b.truth["finger_y_m"]) - np.mean(a.truth["finger_y_m"])
-    assert shift == pytest.approx(2e-3, abs=0.05e-3)
-    assert _top_span_mm(a) - _top_span_mm(b) == pytest.approx(16 * 2 / 5.5, rel=0.1)
+    assert shift == pytest.approx(-4e-3, abs=0.05e-3)
+    assert _top_span_mm(b) - _top_span_mm(a) == pytest.approx(4 * 16 / 13.86, rel=0.1)
     # skin: Hertz's indentation falls as the modulus to the power -2/3
     stiff = _simulate("skin", 4.0, seed=seed)
     ratio = np.median(stiff.truth["indentation_m"]) / np.median(

@@ -26,11 +26,11 @@ from .report import write_stress_report
 from .suite import (
     CLEAN,
     check_values,
+    clean_set_config,
     conditions,
     faulted,
     prepare_test_sets,
     stress_records,
-    test_set_config,
 )
 
 #: The reference method the corruption errors are relative to, when the run has it.
@@ -105,13 +105,18 @@ def run_stress(
     workers: int | None = None,
     progress: bool = True,
     overwrite: bool = False,
+    options: Any = None,
+    stress_data: str | Path | None = None,
     simulator: Any = None,
 ) -> list[Record]:
     """The stress suite into ``out`` (``docs/stress.md``): the nominal dataset ``data`` (a
     store) or, without it, the paper preset (``quick``: the quick one) generated into
-    ``out/data/nominal``; the test sets into ``out/data/stress``; every method fitted once
-    on the nominal closed-set training half. Returns the records it writes to
-    ``out/results.json``. ``simulator`` replaces MuJoCo (tests only)."""
+    ``out/data/nominal``; the test sets simulated into ``out/data/stress`` (resumable), or,
+    with ``stress_data``, read from that directory's existing stores (``benchmark
+    stress``: nothing is simulated); every method fitted once on the nominal closed-set
+    training half, with its constructor ``options`` (``--method-option``). Returns the
+    records it writes to ``out/results.json``. ``simulator`` replaces MuJoCo (tests
+    only)."""
     from synth import load_dataset
     from synth.presets import preset
     from tactile_synth import atomic
@@ -126,6 +131,12 @@ def run_stress(
     atomic.check_out_dir(out)
     if data is not None and not Path(data).is_dir():
         raise FileNotFoundError(f"--data {data} is not a dataset directory")
+    if stress_data is not None and data is None:
+        raise ValueError(
+            "--stress-data needs --data (the nominal dataset its test sets derive from)"
+        )
+    if stress_data is not None and not Path(stress_data).is_dir():
+        raise FileNotFoundError(f"--stress-data {stress_data} is not a directory")
     nominal_config = (
         _stored_config(Path(data))
         if data is not None
@@ -134,11 +145,12 @@ def run_stress(
     trials = _test_trials(nominal_config)
     base = None
     if nominal_config is not None:
-        base = test_set_config(nominal_config, trials_per_class=trials, seed=seed)
+        base = clean_set_config(nominal_config, trials_per_class=trials, seed=seed)
     check_values(opts["families"], opts["severities"], base)  # before any simulation
-    fit_workers = default_workers() if workers is None else check_int("workers", workers, 1)
+    fit_workers = default_workers() if workers is None else check_int("workers", workers, minimum=1)
     t0 = time.perf_counter()
-    with OutputDir(out, overwrite=overwrite, command="stress", inputs={"--data": data}) as tmp:
+    inputs = {"--data": data, "--stress-data": stress_data}
+    with OutputDir(out, overwrite=overwrite, command="stress", inputs=inputs) as tmp:
         if data is None:
             path = out / "data" / "nominal"
             log(progress, f"generating the nominal dataset into {path} (resumable)")
@@ -147,10 +159,21 @@ def run_stress(
             )
             data = path
         nominal = load_dataset(data)
+        root = out / "data" / "stress" if stress_data is None else Path(stress_data)
         test_sets, enrol = _test_sets(
-            nominal, base, opts, out / "data" / "stress", progress, workers, simulator, seed
+            nominal,
+            base,
+            opts,
+            root,
+            progress,
+            workers,
+            simulator,
+            seed,
+            simulate=stress_data is None,
         )
-        records = _evaluate(nominal, test_sets, enrol, opts, tmp, seed, fit_workers, progress)
+        records = _evaluate(
+            nominal, test_sets, enrol, opts, tmp, seed, fit_workers, progress, options
+        )
         _write(records, opts, tmp, nominal, data, test_sets, seed)
     log(progress, f"stress suite done in {time.perf_counter() - t0:.0f} s")
     return records
@@ -173,6 +196,8 @@ def _test_sets(
     workers: int | None,
     simulator: Any,
     seed: int,
+    *,
+    simulate: bool = True,
 ) -> tuple[dict[str, Dataset], np.ndarray | None]:
     """Every condition's test set in memory (the simulated ones loaded, the sensor
     families' faulted from the clean set), and the nominal trials the enrolled reading
@@ -194,7 +219,7 @@ def _test_sets(
         first, second = split_halves(nominal.label[test], seed=child_seed(seed, "stress"))
         enrol = test[first]
         sets = {CLEAN: nominal.subset(test[second])}
-    else:
+    elif simulate:
         paths = prepare_test_sets(
             base,
             opts["families"],
@@ -206,10 +231,40 @@ def _test_sets(
             log=lambda msg: log(progress, msg),
         )
         sets = {key: load_dataset(p) for key, p in paths.items()}
+    else:
+        sets = {key: load_dataset(p) for key, p in existing_test_sets(base, opts, root).items()}
     for cond in conds:
         if cond.family is not None and cond.family.kind == "sensor":
             sets[cond.key] = faulted(sets[CLEAN], cond.family, cond.family.value(cond.severity))
     return sets, enrol
+
+
+def existing_test_sets(base: Any, opts: dict[str, Any], root: Path) -> dict[str, Path]:
+    """The stores of the clean and the physical test sets under ``root`` (``benchmark
+    stress``), each checked to hold the configuration the suite would simulate; a missing
+    or different one is a one-line error naming the command that makes it."""
+    from synth import store
+
+    wanted = {CLEAN: base}
+    for cond in conditions(opts["families"], opts["severities"]):
+        fam = cond.family
+        if fam is not None and fam.kind == "physical":
+            wanted[cond.key] = fam.configure(base, fam.value(cond.severity))
+    paths = {}
+    for key, config in wanted.items():
+        path = root / CLEAN if key != CLEAN and config == base else root / key
+        make = "make them with `tactile-synth stress --data ... --out DIR` (into DIR/data/stress)"
+        if not store.is_store(path):
+            raise FileNotFoundError(f"--stress-data {root}: no test set {key} at {path}; {make}")
+        stored = store.stored_config(path)
+        same_grid = stored.replace(synth=None) == config.replace(synth=None)
+        if not same_grid or (config.synth is not None and stored.synth != config.synth):
+            raise ValueError(
+                f"--stress-data {root}: the test set at {path} was made for another nominal "
+                f"dataset or seed; {make}"
+            )
+        paths[key] = path
+    return paths
 
 
 def _evaluate(
@@ -221,6 +276,7 @@ def _evaluate(
     seed: int,
     workers: int,
     progress: bool,
+    options: Any = None,
 ) -> list[Record]:
     """The stress records, from the checkpoint when the inputs are unchanged."""
     from synth.store import versions
@@ -237,6 +293,7 @@ def _evaluate(
         "episodes": opts["episodes"],
         "cell": [opts["way"], opts["shot"]],
         "reference": opts["reference"],
+        "options": {m: dict(sorted(o.items())) for m, o in sorted((options or {}).items())},
         "version": versions()["package_version"],
         "seed": seed,
     }
@@ -267,6 +324,7 @@ def _evaluate(
         features=features,
         fit_cache=fits,
         enrol=enrol,
+        options=options,
     )
     checkpoints.save(tmp, "stress", key, records)
     fits.clear()

@@ -16,6 +16,8 @@ import math
 from collections.abc import Callable, Mapping
 from typing import Any
 
+import shapely
+
 from synth.presets import FORCE_RANGE_N, SPEED_RANGE_MM_S, GenerationConfig
 
 from .families import PhysicalFamily
@@ -120,7 +122,7 @@ class Yaw(PhysicalFamily):
     summary = "specimen turned in its fixture (simulated)"
     unit = "deg"
     nominal = 0.0
-    levels = (2.0, 4.0, 8.0, 15.0, 30.0)
+    levels = (1.0, 2.0, 4.0, 8.0, 15.0)
 
     def check(self, value: float, config: GenerationConfig | None) -> None:
         if not -90.0 < value < 90.0:
@@ -133,8 +135,8 @@ class Yaw(PhysicalFamily):
 
 
 class Offset(PhysicalFamily):
-    """The finger crosses the specimen off its enrolled line: a re-mounted fixture, another
-    robot's calibration."""
+    """The finger crosses the specimen off its enrolled line, towards and across the
+    specimen's centre line: a re-mounted fixture, another robot's calibration."""
 
     name = "offset"
     summary = "lateral path offset (simulated)"
@@ -143,21 +145,39 @@ class Offset(PhysicalFamily):
     levels = (0.5, 1.0, 2.0, 3.0, 4.0)
 
     def check(self, value: float, config: GenerationConfig | None) -> None:
-        from synth import SynthConfig
-
-        base = SynthConfig() if config is None or config.synth is None else None
-        path_y = (base.motion.path_y_m if base else config.synth["motion"]["path_y_m"]) * 1e3
-        if abs(path_y + value) > 10.0:
+        if config is None:
+            return
+        y = _synth(config)["motion"]["path_y_m"] - value * 1e-3
+        if abs(y) > 10e-3:
             raise ValueError(
-                f"offset {value:g} mm: the path at {path_y + value:g} mm from the specimen's "
-                "centre line leaves the plate's usable width (+-10 mm)"
+                f"offset {value:g} mm: the path at {y * 1e3:g} mm from the specimens' centre "
+                "line leaves the plate's usable width (+-10 mm)"
             )
+        for name, outline in _outlines(config):
+            line = shapely.LineString([(-0.05, y), (0.05, y)])
+            if outline.intersection(line).length <= 0:
+                raise ValueError(
+                    f"offset {value:g} mm: the path at y = {y * 1e3:g} mm misses the "
+                    f"specimen {name}"
+                )
 
     def configure(self, config: GenerationConfig, value: float) -> GenerationConfig:
         if value == self.nominal:
             return config
         y0 = _synth(config)["motion"]["path_y_m"]
-        return _with_synth(config, _set(("motion", "path_y_m"), y0 + value * 1e-3))
+        return _with_synth(config, _set(("motion", "path_y_m"), y0 - value * 1e-3))
+
+
+def _outlines(config: GenerationConfig) -> list[tuple[str, Any]]:
+    """``(name, shapely outline)`` of every specimen of ``config``'s grid."""
+    import shapes
+
+    user = _synth(config).get("specimens") or {}
+    out = []
+    for name in config.shapes:
+        spec = shapes.specimen_from_dict(user[name]) if name in user else name
+        out.append((name, shapes.outline(spec)))
+    return out
 
 
 class Pitch(PhysicalFamily):

@@ -102,8 +102,9 @@ def heatmap(
     fig, axes = plt.subplots(
         1,
         len(readings),
-        figsize=(1.2 + 0.75 * len(families) * len(readings), 0.9 + 0.45 * len(methods)),
+        figsize=(1.0 + (1.4 + 0.55 * len(families)) * len(readings), 1.4 + 0.4 * len(methods)),
         squeeze=False,
+        constrained_layout=True,
     )
     for ax, reading in zip(axes[0], readings, strict=True):
         grid = np.full((len(methods), len(families)), np.nan)
@@ -133,7 +134,9 @@ def family_plot(
     from ..figures import METHOD_COLOURS, save_figure
 
     readings = [r for r in READING_TITLES if select(records, "stress", reading=r)]
-    fig, axes = plt.subplots(1, len(readings), figsize=(5 * len(readings), 3.4), squeeze=False)
+    fig, axes = plt.subplots(
+        1, len(readings), figsize=(5 * len(readings), 3.4), squeeze=False, constrained_layout=True
+    )
     for ax, reading in zip(axes[0], readings, strict=True):
         for m in _methods(records):
             clean = select(records, "stress", reading=reading, family=None, method=m)
@@ -151,7 +154,7 @@ def family_plot(
                 color=METHOD_COLOURS.get(m),
                 label=m,
             )
-        ax.set_xlabel(f"severity ({family.unit})")
+        ax.set_xlabel(f"severity, and its value ({family.unit})")
         ticks = sorted({0, *(r["severity"] for r in select(records, "stress", family=family.name))})
         ax.set_xticks(ticks, [f"{s}\n{family.value(s):g}" for s in ticks], fontsize=7)
         ax.set_ylabel("accuracy (%)")

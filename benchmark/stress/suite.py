@@ -42,7 +42,7 @@ READINGS: tuple[str, ...] = (ENROLLED, PERTURBED)
 CLEAN = "clean"
 
 
-def test_set_config(
+def clean_set_config(
     nominal: GenerationConfig, *, trials_per_class: int, seed: int
 ) -> GenerationConfig:
     """The clean test set's configuration: the nominal dataset's grid and simulator,
@@ -97,7 +97,26 @@ def check_values(
                 "sensor families"
             )
         for s in severities:
-            fam.check(fam.value(s), base)
+            value = fam.value(s)
+            fam.check(value, base)
+            if isinstance(fam, PhysicalFamily) and base is not None:
+                _check_grid(fam, s, fam.configure(base, value))
+
+
+def _check_grid(family: PhysicalFamily, severity: int, config: GenerationConfig) -> None:
+    """Plan a trial of every specimen under ``config`` (the generator's own check), so a
+    severity whose slides would leave the plate is refused before anything is simulated."""
+    from synth.config import default_synth_config
+    from synth.generation import validate_grid
+    from synth.presets import GenerationConfig as _Config
+
+    grid = config if config.synth is not None else config.replace(synth=default_synth_config())
+    try:
+        validate_grid(_Config.from_dict(grid.to_dict()))
+    except ValueError as exc:
+        raise ValueError(
+            f"--families {family.name} severity {severity} ({family.describe(severity)}): {exc}"
+        ) from None
 
 
 def prepare_test_sets(
@@ -206,6 +225,7 @@ def stress_records(
     features: Features | None = None,
     fit_cache: Any = None,
     enrol: np.ndarray | None = None,
+    options: Any = None,
 ) -> list[Record]:
     """The stress records of ``methods``: accuracy per (condition, reading, method), then
     each method's family and overall scores against ``reference`` (``enrol``: see
@@ -220,6 +240,7 @@ def stress_records(
         progress=progress,
         workers=workers,
         fit_cache=fit_cache,
+        options=options,
     ).sets[0]
     by_key = {c.key: c for c in conds}
     records: list[Record] = []
