@@ -113,6 +113,7 @@ def test_an_incomplete_dataset_is_finished_the_cli_way(monkeypatch, capsys):
         ("bench_methods", ["--episodes", "1_000"]),
         ("bench_run", ["--target-s", "1_000"]),
         ("bench_sim", ["--repeat", "1_000"]),
+        ("bench_stress", ["--target-s", "1_000"]),
         ("bench_store", ["--repeat", "1_000"]),
         ("calibrate", ["sweep", "--seeds", "1_000"]),
         ("tune", ["--episodes", "1_000"]),
