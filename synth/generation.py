@@ -182,7 +182,7 @@ def check_resources(config: GenerationConfig, out: Path, *, workers: int, local:
     where = store.existing_parent(out)
     free = shutil.disk_usage(where).free
     grid = (
-        f"{n:,} trials ({counted(len(config.class_indices), 'class', 'classes')} x "
+        f"{n:,} trials ({counted(len(config.classes), 'class', 'classes')} x "
         f"{counted(len(config.conditions), 'condition')} x {config.trials_per_class:,} "
         f"trials per class)"
     )
