@@ -42,6 +42,17 @@ class Dataset:
             arr = getattr(self, name)
             if arr.shape != (n,):
                 raise ValueError(f"{name} must have shape ({n},) like signals; got {arr.shape}")
+        classes = self.classes
+        if (
+            not isinstance(classes, tuple)
+            or not classes
+            or any(not isinstance(c, str) or c.count("/") != 1 for c in classes)
+            or len(set(classes)) != len(classes)
+        ):
+            raise ValueError(
+                f'classes must be a non-empty tuple of unique "<specimen>/<material>" names; '
+                f"got {classes!r}"
+            )
         if n and (self.label.min() < 0 or self.label.max() >= len(self.classes)):
             raise ValueError(f"label must index classes (0..{len(self.classes) - 1})")
 
