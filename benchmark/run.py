@@ -43,7 +43,7 @@ from .engine import (
 from .figures import draw_figures, figure_notes
 from .plan import log, perturbation_for, prepare_datasets, run_plan
 from .protocols import PROTOCOL_NAMES, get
-from .report import dataset_summary, write_report
+from .report import class_grid, dataset_summary, write_report
 from .results import Record, write_results
 from .splits import NotApplicable, specimen_folds
 
@@ -289,6 +289,7 @@ def benchmark_all(
         "seed": seed,
         "data": dataset_summary(data, data_path),
         "perturbed": dataset_summary(perturbed, perturbed_path),
+        "classes": class_grid(data, perturbed),
         "methods": list(methods),
         "episodes": budget.describe(methods, PROTOCOL_NAMES),
         "threads": threads_line(processes),

@@ -378,3 +378,72 @@ def test_resume_and_from_config_need_no_experiment_file(tmp_path):
     assert store.stored_config(out) == grid
     meta = store.read_meta(out)
     assert meta["classes"] == ["circle/pla_top", "gear/pla_top"]
+
+
+def test_resume_names_what_changed_in_the_experiment_by_its_path(tmp_path):
+    from synth import generation
+
+    grid = load_experiment(EXAMPLE).replace(shapes=("gear",), trials_per_class=1)
+    out = tmp_path / "ds"
+    store.create(out, grid)
+    changed = EXAMPLE.read_text().replace("roughness_rms_m = 1.5e-6", "roughness_rms_m = 2e-6")
+    lab = tmp_path / "lab"
+    shutil.copytree(EXAMPLE.parent, lab)
+    (lab / "experiment.toml").write_text(changed)
+    edited = load_experiment(lab / "experiment.toml").replace(shapes=("gear",), trials_per_class=1)
+    with pytest.raises(store.DatasetError) as exc:
+        generation.prepare(edited, out, resume=True)
+    message = str(exc.value)
+    assert "synth.materials.pla_top.texture.roughness_rms_m=1.5e-06 there, 2e-06 here" in message
+    assert len(message) < 400 and "\n" not in message
+    assert generation.prepare(grid, out, resume=True).todo == [0]  # the same file resumes
+
+
+def test_run_simulates_the_perturbation_grid_for_the_nominal_dataset_s_own_classes(tmp_path):
+    from benchmark.plan import perturbation_for, run_plan
+
+    base = run_plan(True).perturbation
+    grid = load_experiment(EXAMPLE).replace(shapes=("gear", "moon"), trials_per_class=2)
+    store.create(tmp_path / "lab", grid)
+    pert = perturbation_for(tmp_path / "lab", base)
+    assert pert.classes == grid.classes and pert.synth == grid.synth
+    assert (pert.conditions, pert.trials_per_class) == (base.conditions, base.trials_per_class)
+    # The paper preset's store gives the perturbation preset itself (its settings resolved).
+    paper = PRESETS["paper"].replace(synth=SynthConfig().to_dict())
+    store.create(tmp_path / "paper", paper)
+    full = run_plan(False).perturbation
+    assert perturbation_for(tmp_path / "paper", full) == full.replace(synth=paper.synth)
+
+
+def test_an_imported_store_of_unknown_specimens_needs_its_perturbation_dataset_given(tmp_path):
+    from benchmark.plan import perturbation_for, run_plan
+    from synth.grid import TrialPlan
+
+    trials = TrialPlan(
+        label=np.zeros(2, np.int16),
+        condition=np.zeros(2, np.int16),
+        trial_index=np.arange(2, dtype=np.int32),
+        force_n=np.ones(2),
+        speed_mm_s=np.full(2, 10.0),
+        seed=np.zeros(2, np.int64),
+        classes=("gear/cork",),
+    )
+    path = tmp_path / "imported"
+    store.create_imported(path, trials, [(1.0, 10.0)], 2)
+    store.finish_imported(path, np.arange(2), {"recordings": "r"})
+    with pytest.raises(ValueError, match=r"holds imported recordings of gear, cork.*--perturbed"):
+        perturbation_for(path, run_plan(True).perturbation)
+
+
+def test_the_report_names_the_dataset_s_classes():
+    from synthetic_data import make_dataset
+
+    from benchmark.report import class_grid, classes_section, generalisation_titles
+
+    data = make_dataset(trials_per_class=2, shapes=("moon", "square"), materials=("wood",))
+    lines = classes_section({"classes": class_grid(data)})
+    assert "| specimen | wood |" in lines and "| moon | 2 |" in lines
+    titles = generalisation_titles([], {"cross_shape_folds": [["a", "b"], ["c"]]})
+    assert titles["cross-shape"] == "### Cross-shape (2 fixed folds of 1-2 unseen shapes)"
+    paper = generalisation_titles([], {"cross_shape_folds": [["a"] * 4] * 3})
+    assert paper["cross-shape"] == "### Cross-shape (3 fixed folds of 4 unseen shapes)"
