@@ -50,9 +50,9 @@ from shapes.experiment import read_toml
 from shapes.specimen import NAME_PATTERN, NAME_RULE
 from tactile_synth.validation import check_int
 
-from . import material_data
 from .config import SynthConfig
 from .grid import MAX_CHUNK_TRIALS, GenerationConfig, check_forces, check_speeds
+from .materials import MATERIALS
 
 #: The top-level keys of an experiment file.
 KEYS = (
@@ -215,14 +215,20 @@ def overlay(base: Mapping[str, Any], over: Mapping[str, Any]) -> dict[str, Any]:
 
 def _materials(file: str, names: object, tables: object) -> dict[str, Any]:
     """The experiment's materials by name, in the order ``materials`` lists them: each a
-    ``[[material]]`` table of the file or a library material."""
-    lib = material_data.library()
-    own = material_data.parse_materials(tables, file=file, library_names=tuple(lib))
+    ``[[material]]`` table of the file or a library material. The library's file is read
+    only for a name that is not one of the paper's three (so loading the presets, which
+    name only those, reads nothing more)."""
+    own: dict[str, Any] = {}
+    if tables is not None:
+        from . import material_data
+
+        own = material_data.parse_materials(tables, file=file)
     if names is None:
         if not own:
             raise ValueError(
                 f"{file}: no materials: list library materials in materials = [...] "
-                f"(library: {', '.join(lib)}) or define your own in [[material]] tables"
+                f"(library: {', '.join(_library())}) or define your own in [[material]] "
+                f"tables"
             )
         names = list(own)
     if isinstance(names, str) or not isinstance(names, list) or not names:
@@ -239,9 +245,12 @@ def _materials(file: str, names: object, tables: object) -> dict[str, Any]:
             )
         if name in own:
             out[name] = own[name]
-        elif name in lib:
-            out[name] = lib[name]
+        elif name in MATERIALS:  # the library's first three
+            out[name] = MATERIALS[name]
+        elif name in _library():
+            out[name] = _library()[name]
         else:
+            lib = _library()
             known = (*own, *lib)
             raise ValueError(
                 f"{file}: material {name!r}: neither a [[material]] table of the file nor a "
@@ -254,6 +263,12 @@ def _materials(file: str, names: object, tables: object) -> dict[str, Any]:
             f"listed in materials; add it there or remove its table"
         )
     return out
+
+
+def _library() -> dict[str, Any]:
+    from . import material_data
+
+    return material_data.library()
 
 
 def packaged_path(name: str) -> Path:
