@@ -46,7 +46,13 @@ from tactile_synth.threads import rollout_threads
 
 from . import contact, kernels, sensors, texture
 from . import scene as scene_mod
-from .closed_loop import CLOCK_START_S, ClosedLoop, LoopTrial, timers_off
+from .closed_loop import (
+    CLOCK_START_S,
+    ClosedLoop,
+    LoopTrial,
+    force_loop_gain_m_per_n_s,
+    timers_off,
+)
 from .config import SynthConfig
 from .trial import N_SAMPLES, SAMPLE_RATE_HZ, WINDOW_S, Trial, TrialSpec, class_key
 
@@ -82,6 +88,9 @@ MAX_TRACKING_ERROR_M = 8e-3
 #: fast stroke runs off a wall: the stiff PDMS support leaves the skin's indentation as
 #: the only travel while the force loop lowers the arm (up to 34 ms measured at 0.6 N and
 #: 14 mm/s, the perturbation grid's corner); longer means the finger left the specimen.
+#: A specimen higher than the built-ins' 2 mm is allowed the time the force loop takes to
+#: lower the arm by the extra height at its fastest, with no force read
+#: (:func:`contact_gap_limit_s`).
 MAX_CONTACT_GAP_S = 0.05
 #: Resolution of the search for the first touch along the path.
 TOUCH_STEP_M = 20e-6
@@ -111,6 +120,7 @@ class Plan:
     steps: int  # physics steps the record needs (a whole number of controller periods)
     noise_seed: np.random.SeedSequence
     specimen: SpecimenLike  # the built-in shape's name or the configuration's Specimen
+    max_gap_s: float = MAX_CONTACT_GAP_S  # longest tolerated contact gap (contact_gap_limit_s)
 
     @property
     def x_ref(self) -> np.ndarray:
@@ -321,7 +331,20 @@ def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
         ),
         noise_seed=noise_ss,
         specimen=specimen,
+        max_gap_s=contact_gap_limit_s(config, force, height),
     )
+
+
+def contact_gap_limit_s(config: SynthConfig, force_n: float, height_m: float) -> float:
+    """Longest contact gap a trial at ``force_n`` on a specimen ``height_m`` high may show:
+    :data:`MAX_CONTACT_GAP_S`, measured on the built-ins' 2 mm, plus, for a higher
+    specimen, the time the force loop takes to lower the arm by the extra height when it
+    reads no force (its fastest descent, ``gain x force_n``): a light stroke that runs
+    off a higher wall falls for longer before the skin meets the plate again."""
+    extra = max(height_m - SPECIMEN.height_m, 0.0)
+    if extra == 0.0:
+        return MAX_CONTACT_GAP_S
+    return MAX_CONTACT_GAP_S + extra / (force_loop_gain_m_per_n_s(config, force_n) * force_n)
 
 
 def _earliest_middle_s(config: SynthConfig) -> float:
@@ -576,11 +599,11 @@ def _process(
 def _check_trial(p: Plan, truth: dict[str, np.ndarray], finite: bool) -> None:
     """Raise :class:`SimulationError` for a trial whose physics went wrong: a non-finite
     sensor value (``finite`` False), a contact lost for longer than
-    ``MAX_CONTACT_GAP_S`` in its window, or a finger stuck behind its path."""
+    ``p.max_gap_s`` in its window, or a finger stuck behind its path."""
     if not finite:
         raise SimulationError(f"non-finite physics (NaN/inf) while simulating {_describe(p.spec)}")
     gap, where = _longest_run(truth["contacts"] < 1)
-    if gap / SAMPLE_RATE_HZ > MAX_CONTACT_GAP_S:
+    if gap / SAMPLE_RATE_HZ > p.max_gap_s:
         raise SimulationError(
             f"the finger lost contact with the specimen for {gap} ms from "
             f"t={truth['time_s'][where]:.3f} s while simulating {_describe(p.spec)}"

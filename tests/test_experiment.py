@@ -447,3 +447,14 @@ def test_the_report_names_the_dataset_s_classes():
     assert titles["cross-shape"] == "### Cross-shape (2 fixed folds of 1-2 unseen shapes)"
     paper = generalisation_titles([], {"cross_shape_folds": [["a"] * 4] * 3})
     assert paper["cross-shape"] == "### Cross-shape (3 fixed folds of 4 unseen shapes)"
+
+
+def test_a_higher_specimen_may_lose_contact_longer_where_it_runs_off_its_wall():
+    from synth.simulator import MAX_CONTACT_GAP_S, contact_gap_limit_s
+
+    config = SynthConfig()
+    assert contact_gap_limit_s(config, 0.6, 2e-3) == MAX_CONTACT_GAP_S  # the built-ins'
+    assert contact_gap_limit_s(config, 0.6, 1e-3) == MAX_CONTACT_GAP_S
+    # 0.5 mm more at 0.6 N: the loop's fastest descent, gain x force, takes 35 ms more.
+    assert contact_gap_limit_s(config, 0.6, 2.5e-3) == pytest.approx(0.0856, abs=5e-4)
+    assert contact_gap_limit_s(config, 1.4, 2.5e-3) < contact_gap_limit_s(config, 0.6, 2.5e-3)
