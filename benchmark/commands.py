@@ -204,7 +204,8 @@ def _register_run(subparsers: argparse._SubParsersAction) -> None:
         "--data",
         metavar="PATH",
         help="use this dataset store (generated or imported) as the nominal dataset "
-        "instead of generating the paper preset",
+        "instead of generating the paper preset; without --perturbed the perturbation "
+        "dataset is simulated for its classes",
     )
     p.add_argument(
         "--perturbed",

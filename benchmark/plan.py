@@ -76,6 +76,34 @@ def run_plan(quick: bool, *, seed: int = 0, methods: Sequence[str] | None = None
     )
 
 
+def perturbation_for(nominal: str | Path, base: Any) -> Any:
+    """The perturbation grid ``base`` (the plan's, a ``GenerationConfig``) for the classes
+    of the nominal dataset at ``nominal``: its specimens, materials and simulator settings
+    (its stored configuration), at ``base``'s conditions, trials and seed. A store of
+    imported recordings has no configuration: its classes are simulated with the
+    simulator's defaults when the paper's shapes and materials are all they hold; other
+    specimens or materials have no definition to simulate (``ValueError``: give
+    ``--perturbed``)."""
+    from shapes import SHAPE_NAMES
+    from synth import MATERIAL_NAMES, store
+
+    path = Path(nominal)
+    meta = store.read_meta(path)
+    if store.store_kind(meta) != store.KIND_IMPORTED:
+        config = store.stored_config(path)
+        return base.replace(shapes=config.shapes, materials=config.materials, synth=config.synth)
+    shapes_, materials = list(meta.get("shapes") or ()), list(meta.get("materials") or ())
+    unknown = [s for s in shapes_ if s not in SHAPE_NAMES]
+    unknown += [m for m in materials if m not in MATERIAL_NAMES]
+    if unknown:
+        raise ValueError(
+            f"--data {nominal} holds imported recordings of {', '.join(unknown)}, which the "
+            f"simulator has no definition of, so their perturbation dataset cannot be "
+            f"simulated; give it with --perturbed"
+        )
+    return base.replace(shapes=tuple(shapes_), materials=tuple(materials))
+
+
 def prepare_datasets(
     plan: RunPlan,
     out: Path,

@@ -56,6 +56,85 @@ def dataset_summary(data: Dataset, path: str | Path | None) -> str:
     )
 
 
+def class_grid(data: Dataset, perturbed: Dataset | None = None) -> dict[str, Any]:
+    """The dataset's classes for the report's class table: its specimens and materials
+    (in its class order) and the trials of each class, ``"<specimen>/<material>"`` ->
+    ``[nominal trials, perturbation trials]`` (the second 0 without ``perturbed``)."""
+    counts: dict[str, list[int]] = {}
+    for which, d in enumerate((data, perturbed)):
+        if d is None:
+            continue
+        names, n = np.unique(np.asarray(d.classes)[d.label], return_counts=True)
+        for name, k in zip(names.tolist(), n.tolist(), strict=True):
+            counts.setdefault(name, [0, 0])[which] = int(k)
+    return {
+        "specimens": list(data.specimens),
+        "materials": list(data.materials),
+        "trials": counts,
+        "perturbed": perturbed is not None,
+    }
+
+
+def classes_section(meta: Mapping[str, Any]) -> list[str]:
+    """A table of the nominal dataset's classes (rows: specimens, columns: materials;
+    each cell the class's trials in the nominal dataset, and in the perturbation
+    dataset after a slash)."""
+    grid = meta.get("classes")
+    if not grid:
+        return []
+    specimens, materials, trials = grid["specimens"], grid["materials"], grid["trials"]
+    lines = ["## Classes", ""]
+    both = " (nominal / perturbation dataset)" if grid.get("perturbed") else ""
+    lines.append(
+        f"The nominal dataset's {len(trials)} classes `<specimen>/<material>`: "
+        f"{len(specimens)} specimens x {len(materials)} materials; each cell is the "
+        f"class's trials{both}, - where the class has none."
+    )
+    lines.append("")
+
+    def cell(name: str) -> str:
+        n = trials.get(name)
+        if n is None:
+            return "-"
+        return f"{n[0]} / {n[1]}" if grid.get("perturbed") else str(n[0])
+
+    rows = [[s, *[cell(f"{s}/{m}") for m in materials]] for s in specimens]
+    lines += markdown_table(["specimen", *materials], rows)
+    lines.append("")
+    return lines
+
+
+def _plural(n: int, word: str) -> str:
+    return f"{n} {word}" + ("" if n == 1 else "s")
+
+
+def generalisation_titles(records: Sequence[dict], meta: Mapping[str, Any]) -> dict[str, str]:
+    """The generalisation protocols' section titles, from the folds the dataset gave."""
+    folds = [list(f) for f in meta.get("cross_shape_folds") or ()]
+    sizes = sorted({len(f) for f in folds})
+    if folds:
+        size = str(sizes[0]) if len(sizes) == 1 else f"{sizes[0]}-{sizes[-1]}"
+        shape = f"{_plural(len(folds), 'fixed fold')} of {size} unseen shape"
+        shape += "" if sizes == [1] else "s"
+    else:
+        shape = "fixed folds of unseen shapes"
+    trained = list(
+        dict.fromkeys(
+            r["fold"] for r in _acc(records, protocol="cross-material") if r["fold"] is not None
+        )
+    )
+    material = (
+        f"train on 1 material, test on the other {len(trained) - 1}"
+        if len(trained) > 1
+        else "train on 1 material, test on the others"
+    )
+    return {
+        "cross-shape": f"### Cross-shape ({shape})",
+        "cross-material": f"### Cross-material ({material})",
+        "perturbation": "### Force/speed perturbation (fitted at the nominal condition)",
+    }
+
+
 def strip_timing(text: str) -> str:
     """The report without its timing section (the part that is not reproducible)."""
     return _TIMING_RE.sub(TIMING_START + TIMING_END, text)
@@ -199,11 +278,7 @@ def generalisation_section(records: Sequence[dict], meta: Mapping[str, Any]) -> 
         "line)."
     )
     lines.append("")
-    titles = {
-        "cross-shape": "### Cross-shape (3 fixed folds of 4 unseen shapes)",
-        "cross-material": "### Cross-material (train on 1 material, test on the other 2)",
-        "perturbation": "### Force/speed perturbation (fitted at the nominal condition)",
-    }
+    titles = generalisation_titles(records, meta)
     for protocol in GENERALISATION:
         if not _acc(records, protocol=protocol):
             lines += [titles[protocol], "", "Not run.", ""]
@@ -503,7 +578,8 @@ def interpretability_section(records: Sequence[dict]) -> list[str]:
         "features standardised per column first; Euclidean distance in either space):",
         "",
         "- **1-NN shape accuracy**: leave-one-out 1-nearest-neighbour accuracy of the "
-        "shape label (each trial's nearest other trial has its shape). Chance ≈ 1/12.",
+        "shape label (each trial's nearest other trial has its shape). Chance ≈ 1 / the "
+        "number of shapes (1/12 on the paper's).",
         "- **mix-sil**: within each shape's trials, the silhouette coefficient of the "
         "material labels; s = trial-weighted mean over shapes; mix-sil = 1 − clip(s, 0, 1). "
         "1 = materials do not form sub-clusters inside a shape cluster; 0 = each material "
@@ -660,6 +736,7 @@ def render(records: Sequence[dict], meta: Mapping[str, Any]) -> str:
         lines.append(f"- {note}")
     lines.append("")
     lines += beyond_section(records, meta)
+    lines += classes_section(meta)
     lines += closed_set_section(records)
     lines += generalisation_section(records, meta)
     lines += perturbation_grid_section(records)

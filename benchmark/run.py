@@ -14,6 +14,7 @@ output directories in :mod:`benchmark.outputs`.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -40,9 +41,9 @@ from .engine import (
     run_task_sets,
 )
 from .figures import draw_figures, figure_notes
-from .plan import log, prepare_datasets, run_plan
+from .plan import log, perturbation_for, prepare_datasets, run_plan
 from .protocols import PROTOCOL_NAMES, get
-from .report import dataset_summary, write_report
+from .report import class_grid, dataset_summary, write_report
 from .results import Record, write_results
 from .splits import NotApplicable, specimen_folds
 
@@ -288,6 +289,7 @@ def benchmark_all(
         "seed": seed,
         "data": dataset_summary(data, data_path),
         "perturbed": dataset_summary(perturbed, perturbed_path),
+        "classes": class_grid(data, perturbed),
         "methods": list(methods),
         "episodes": budget.describe(methods, PROTOCOL_NAMES),
         "threads": threads_line(processes),
@@ -329,7 +331,9 @@ def run(
 
     ``data`` / ``perturbed``: existing dataset stores (generated or imported with
     ``tactile-synth import``) used instead of generating the nominal / perturbation
-    dataset; the one not given is generated as usual.
+    dataset; the one not given is generated as usual. With ``data`` alone the
+    perturbation grid is simulated for ``data``'s own classes (its specimens, materials
+    and simulator settings: :func:`benchmark.plan.perturbation_for`).
 
     ``workers``: processes for generation and for the benchmark's fits (default: the
     generator's own default, and :func:`default_workers` for the fits).
@@ -357,6 +361,9 @@ def run(
     for path, arg in zip(given.values(), ("data", "perturbed"), strict=True):
         if path is not None and not Path(path).is_dir():
             raise FileNotFoundError(f"--{arg} {path} is not a dataset directory")
+    if data is not None and perturbed is None:
+        # The perturbation grid is simulated for the nominal dataset's own classes.
+        plan = dataclasses.replace(plan, perturbation=perturbation_for(data, plan.perturbation))
     t_start = time.perf_counter()
     # The given datasets are inputs: OutputDir refuses any that replacing out's contents
     # would delete (only out/data is kept across runs).

@@ -48,7 +48,7 @@ def benchmark_protocol(
     """
     from synth import load_dataset
 
-    from .report import dataset_summary, write_report
+    from .report import class_grid, dataset_summary, write_report
     from .run import (
         benchmark_all,
         default_workers,
@@ -57,7 +57,7 @@ def benchmark_protocol(
         run_protocols,
         threads_line,
     )
-    from .splits import NotApplicable
+    from .splits import NotApplicable, specimen_folds
 
     chosen = None if protocol == "all" else get(protocol, arg="PROTOCOL")
     methods = check_methods(list(methods) if methods else list(DEFAULT_METHODS))
@@ -131,6 +131,12 @@ def benchmark_protocol(
             "seed": seed,
             "data": dataset_summary(data, data_path),
             "perturbed": None if perturbed is None else dataset_summary(perturbed, perturbed_path),
+            "classes": class_grid(data, perturbed),
+            "cross_shape_folds": (
+                [list(f) for f in specimen_folds(data.specimens)]
+                if chosen.name == "cross-shape"
+                else []
+            ),
             "methods": list(methods),
             "episodes": f"{episodes} per cell",
             "threads": threads_line(processes),

@@ -40,6 +40,8 @@ import mujoco
 import numpy as np
 from mujoco import _rollout
 
+from shapes import SpecimenLike
+
 from . import contact, kernels
 from . import pieces as pieces_mod
 from . import scene as scene_mod
@@ -161,7 +163,7 @@ class ClosedLoop:
         models: Sequence[mujoco.MjModel],
         trials: Sequence[LoopTrial],
         config: SynthConfig,
-        shape: str | None = None,
+        shape: SpecimenLike | None = None,
     ) -> None:
         self.models = list(models)
         self.trials = list(trials)

@@ -1,8 +1,9 @@
 """Every parameter of the simulated experiment: one frozen, validated dataclass per physical
 component, SI units with the unit in the field name, a one-line rationale per value.
 
-``SynthConfig`` bundles them (plus the material table) and round-trips through plain
-dicts (``to_dict``/``from_dict``) so a dataset stores the exact configuration that made it.
+``SynthConfig`` bundles them (plus the materials and the user's specimens) and round-trips
+through plain dicts (``to_dict``/``from_dict``) so a dataset stores the exact
+configuration that made it.
 """
 
 from __future__ import annotations
@@ -13,8 +14,11 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, Self
 
+from shapes import SHAPE_NAMES, Specimen, SpecimenLike, specimen_from_dict, specimen_to_dict
+
 from . import params
-from .materials import MATERIAL_NAMES, MATERIALS, Material
+from .materials import MATERIALS, Material
+from .trial import check_name
 
 #: Vacuum permittivity (F/m).
 VACUUM_PERMITTIVITY_F_M = 8.8541878128e-12
@@ -586,7 +590,15 @@ def _default_materials() -> dict[str, Material]:
 
 @dataclass(frozen=True)
 class SynthConfig:
-    """The whole simulated experiment. ``SynthConfig()`` is the paper's set-up."""
+    """The whole simulated experiment. ``SynthConfig()`` is the paper's set-up.
+
+    ``materials``: the materials a trial may name, by name (any set of at least one; the
+    default is the paper's three, :data:`synth.materials.MATERIALS`). ``specimens``: the
+    user's specimens a trial may name besides the 12 built-in shapes (``shapes.Specimen``
+    by name; default none). A trial's ``shape`` resolves to a built-in or one of
+    ``specimens`` (:meth:`specimen`), its ``material`` to one of ``materials``
+    (:meth:`material`).
+    """
 
     finger: Finger = field(default_factory=Finger)
     motion: Motion = field(default_factory=Motion)
@@ -595,25 +607,31 @@ class SynthConfig:
     pvdf: PVDF = field(default_factory=PVDF)
     acquisition: Acquisition = field(default_factory=Acquisition)
     materials: dict[str, Material] = field(default_factory=_default_materials)
+    specimens: dict[str, Specimen] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
-            if f.name == "materials":
+            if f.name in ("materials", "specimens"):
                 continue
             value = getattr(self, f.name)
             if type(value).__name__ != f.type:
                 raise ValueError(
                     f"SynthConfig.{f.name} must be a {f.type}; got {type(value).__name__}"
                 )
-        if sorted(self.materials) != sorted(MATERIAL_NAMES):
-            raise ValueError(
-                f"SynthConfig.materials must define exactly {', '.join(MATERIAL_NAMES)}; "
-                f"got {', '.join(sorted(self.materials))}"
-            )
+        if not isinstance(self.materials, Mapping) or not self.materials:
+            raise ValueError("SynthConfig.materials must define at least one material")
         for name, mat in self.materials.items():
+            check_name("SynthConfig.materials key", name)
             if not isinstance(mat, Material) or mat.name != name:
                 raise ValueError(
                     f"SynthConfig.materials[{name!r}] must be a Material named {name!r}"
+                )
+        if not isinstance(self.specimens, Mapping):
+            raise ValueError("SynthConfig.specimens must map names to shapes.Specimen")
+        for name, spec in self.specimens.items():
+            if not isinstance(spec, Specimen) or spec.name != name:
+                raise ValueError(
+                    f"SynthConfig.specimens[{name!r}] must be a shapes.Specimen named {name!r}"
                 )
         if self.finger.skin_solref[0] < 2 * self.motion.timestep_s:
             raise ValueError(
@@ -621,24 +639,80 @@ class SynthConfig:
                 f"({2 * self.motion.timestep_s} s); got {self.finger.skin_solref[0]!r}"
             )
 
+    @property
+    def specimen_names(self) -> tuple[str, ...]:
+        """Every specimen a trial may name: the 12 built-ins (paper order), then
+        :attr:`specimens` in their order."""
+        return (*SHAPE_NAMES, *self.specimens)
+
+    def specimen(self, name: str) -> SpecimenLike:
+        """The built-in shape name or the :class:`shapes.Specimen` that ``name`` names;
+        a one-line ``ValueError`` naming the valid ones otherwise."""
+        if name in SHAPE_NAMES:
+            return name
+        found = self.specimens.get(name)
+        if found is None:
+            raise ValueError(
+                f"shape {name!r} is neither a built-in shape nor a specimen of the "
+                f"configuration; valid: {', '.join(self.specimen_names)}"
+            )
+        return found
+
+    def material(self, name: str) -> Material:
+        """The material ``name`` names; a one-line ``ValueError`` naming the valid ones
+        otherwise."""
+        found = self.materials.get(name)
+        if found is None:
+            raise ValueError(
+                f"material {name!r} is not a material of the configuration; valid: "
+                f"{', '.join(self.materials)}"
+            )
+        return found
+
     def with_material(self, material: Material) -> Self:
         """A copy with ``material`` replacing the entry of the same name."""
         mats = dict(self.materials)
         if material.name not in mats:
             raise ValueError(
-                f"material.name must be one of {', '.join(MATERIAL_NAMES)}; got {material.name!r}"
+                f"material.name must be one of {', '.join(mats)}; got {material.name!r}"
             )
         mats[material.name] = material
         return dataclasses.replace(self, materials=mats)
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain JSON-serialisable dict of every parameter."""
-        return params.to_dict(self)
+        """Plain JSON-serialisable dict of every parameter. ``specimens`` holds each
+        specimen's record (``shapes.specimen_to_dict``: its vertices, height and geometry
+        hash) and is left out when there are none, as the paper's set-up has."""
+        out = params.to_dict(dataclasses.replace(self, specimens={}))
+        del out["specimens"]
+        if self.specimens:
+            out["specimens"] = {name: specimen_to_dict(s) for name, s in self.specimens.items()}
+        return out
 
     @classmethod
     def from_dict(cls, data: Any) -> SynthConfig:
-        """Rebuild from :meth:`to_dict` output; unknown or missing keys raise ValueError."""
-        return params.from_dict(cls, data)
+        """Rebuild from :meth:`to_dict` output; unknown or missing keys raise ValueError
+        (``specimens`` may be absent: none)."""
+        if not isinstance(data, Mapping):
+            raise ValueError(f"SynthConfig must be a mapping; got {type(data).__name__}")
+        records = data.get("specimens", {})
+        if not isinstance(records, Mapping):
+            raise ValueError(
+                f"SynthConfig.specimens must be a mapping; got {type(records).__name__}"
+            )
+        specimens: dict[str, Specimen] = {}
+        for name, record in records.items():
+            try:
+                spec = specimen_from_dict(record)
+            except ValueError as exc:
+                raise ValueError(f"SynthConfig.specimens.{name}: {exc}") from None
+            if not isinstance(spec, Specimen):
+                raise ValueError(
+                    f"SynthConfig.specimens.{name}: a built-in shape needs no entry here"
+                )
+            specimens[str(name)] = spec
+        base = params.from_dict(cls, {**data, "specimens": {}})
+        return dataclasses.replace(base, specimens=specimens) if specimens else base
 
 
 def default_synth_config() -> dict[str, Any]:

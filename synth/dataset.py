@@ -15,8 +15,10 @@ class Dataset:
     """Aligned per-trial arrays.
 
     signals: float32 ``(n, 4, T)``; shape, material: str ``(n,)``; label: int ``(n,)``
-    indexing ``classes`` (always the 36 names of :data:`synth.trial.CLASS_NAMES`, so labels
-    agree across datasets); force_n, speed_mm_s: float ``(n,)``; seed: int ``(n,)``;
+    indexing ``classes``, the dataset's own class list (``"<specimen>/<material>"``,
+    specimen-major, as its store records it: the paper's 36 :data:`synth.trial.CLASS_NAMES`
+    for the paper presets, any set for a user's experiment; compare labels of two
+    datasets by their names); force_n, speed_mm_s: float ``(n,)``; seed: int ``(n,)``;
     attrs: provenance (versions, full configuration, creation time).
     """
 
@@ -40,6 +42,17 @@ class Dataset:
             arr = getattr(self, name)
             if arr.shape != (n,):
                 raise ValueError(f"{name} must have shape ({n},) like signals; got {arr.shape}")
+        classes = self.classes
+        if (
+            not isinstance(classes, tuple)
+            or not classes
+            or any(not isinstance(c, str) or c.count("/") != 1 for c in classes)
+            or len(set(classes)) != len(classes)
+        ):
+            raise ValueError(
+                f'classes must be a non-empty tuple of unique "<specimen>/<material>" names; '
+                f"got {classes!r}"
+            )
         if n and (self.label.min() < 0 or self.label.max() >= len(self.classes)):
             raise ValueError(f"label must index classes (0..{len(self.classes) - 1})")
 

@@ -21,15 +21,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
     p = subparsers.add_parser(
         "generate",
-        help="simulate a dataset (preset or custom grid) into a Zarr store",
+        help="simulate a dataset (preset, experiment file or custom grid) into a Zarr store",
         description=(
-            "Simulate a dataset into a Zarr store. The grid starts from --preset, --config "
-            "or --from-config (default: the paper preset, or the stored grid with --resume) "
-            "and the grid options override it; the full configuration is saved in the store."
+            "Simulate a dataset into a Zarr store. The grid starts from --preset, "
+            "--experiment, --config or --from-config (default: the paper preset, or the "
+            "stored grid with --resume) and the grid options override it; the full "
+            "configuration (specimens' outlines and materials included) is saved in the store."
         ),
     )
     base = p.add_mutually_exclusive_group()
     base.add_argument("--preset", choices=tuple(PRESETS), help="named grid")
+    base.add_argument(
+        "--experiment",
+        metavar="FILE",
+        help="an experiment file (TOML): its specimens, materials, conditions, trials per "
+        "class and simulator settings (docs/experiments.md)",
+    )
     base.add_argument("--config", metavar="TOML", help="grid from a TOML file")
     base.add_argument(
         "--from-config", metavar="DATASET", help="the exact grid of an existing dataset"
@@ -152,6 +159,7 @@ _GRID_OPTIONS = {
 def config_from_args(args: argparse.Namespace) -> Any:
     """The GenerationConfig the options ask for (``None``: resume with the stored grid)."""
     from . import store
+    from .experiment import load_experiment
     from .presets import load_toml, preset
 
     overrides: dict[str, Any] = {
@@ -167,6 +175,8 @@ def config_from_args(args: argparse.Namespace) -> Any:
     resume = args.resume or args.repair
     if args.preset:
         config = preset(args.preset)
+    elif args.experiment:
+        config = load_experiment(args.experiment)
     elif args.config:
         config = load_toml(args.config)
     elif args.from_config:
@@ -277,7 +287,7 @@ def _generate(args: argparse.Namespace) -> int:
     elapsed = time.perf_counter() - start
     st = store.Store.open(out)
     cfg, meta = st.config, st.meta
-    n, n_classes = st.n_trials, len(cfg.class_indices)
+    n, n_classes = st.n_trials, len(cfg.classes)
     grid = (
         f"{counted(n_classes, 'class', 'classes')} x "
         f"{counted(len(meta['conditions']), 'condition')} x "

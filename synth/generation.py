@@ -182,7 +182,7 @@ def check_resources(config: GenerationConfig, out: Path, *, workers: int, local:
     where = store.existing_parent(out)
     free = shutil.disk_usage(where).free
     grid = (
-        f"{n:,} trials ({counted(len(config.class_indices), 'class', 'classes')} x "
+        f"{n:,} trials ({counted(len(config.classes), 'class', 'classes')} x "
         f"{counted(len(config.conditions), 'condition')} x {config.trials_per_class:,} "
         f"trials per class)"
     )
@@ -236,16 +236,32 @@ def _resolve_config(config: GenerationConfig | str | None) -> GenerationConfig |
     return config
 
 
+def _differences(have: Any, want: Any, path: str) -> list[str]:
+    """``"key=THERE there, HERE here"`` for every leaf where two configurations differ,
+    nested tables followed key by key (a specimen's outline or a material's texture is
+    named by its path, not printed whole)."""
+    if isinstance(have, Mapping) and isinstance(want, Mapping):
+        out: list[str] = []
+        for key in [*have, *(k for k in want if k not in have)]:
+            out += _differences(have.get(key), want.get(key), f"{path}.{key}" if path else key)
+        return out
+    if have == want:
+        return []
+    if path.endswith("vertices_m"):
+        return [f"{path} differ"]
+    return [f"{path}={have!r} there, {want!r} here"]
+
+
 def _check_same(requested: GenerationConfig, stored: GenerationConfig, where: str) -> None:
     want = requested.to_dict()
     have = stored.to_dict()
     if "synth" not in want:  # the simulator defaults were resolved when the store was made
         have.pop("synth", None)
-    diff = [k for k in sorted(set(want) | set(have)) if want.get(k) != have.get(k)]
+    diff = _differences(have, want, "")
     if diff:
+        shown = ", ".join(diff[:3]) + (f", and {len(diff) - 3} more" if len(diff) > 3 else "")
         raise store.DatasetError(
-            f"{where} was generated with a different configuration "
-            f"({', '.join(f'{k}={have.get(k)!r} there, {want.get(k)!r} here' for k in diff)})",
+            f"{where} was generated with a different configuration ({shown})",
             "resume without grid options, or use --overwrite",
         )
 

@@ -35,6 +35,7 @@ import numpy as np
 import shapely
 
 import shapes
+from shapes import SpecimenLike
 from shapes.partition import convex_partition
 
 from . import kernels
@@ -78,9 +79,9 @@ class Outline:
 
 
 @functools.lru_cache(maxsize=16)
-def outline_pieces(shape: str) -> Outline | None:
-    """The outline of ``shape`` with its convex pieces (the order of the scene's
-    ``piece<i>`` geoms), or ``None`` for a single piece."""
+def outline_pieces(shape: SpecimenLike) -> Outline | None:
+    """The outline of ``shape`` (a built-in name or a ``Specimen``) with its convex pieces
+    (the order of the scene's ``piece<i>`` geoms), or ``None`` for a single piece."""
     poly = shapes.outline(shape)
     pieces = convex_partition(poly)
     if len(pieces) < 2:
@@ -172,7 +173,7 @@ class PieceContacts:
 
 
 def piece_contacts(
-    shape: str, models: Sequence[mujoco.MjModel], reach_m: float
+    shape: SpecimenLike, models: Sequence[mujoco.MjModel], reach_m: float
 ) -> PieceContacts | None:
     """The piece selector of a batch of trial models of ``shape`` (``None`` when its
     outline is one convex piece, or the models have no raised outline)."""

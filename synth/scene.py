@@ -37,7 +37,7 @@ import mujoco
 import numpy as np
 
 import shapes
-from shapes import SPECIMEN
+from shapes import SPECIMEN, SpecimenLike, specimen_name
 
 from .config import Finger, Motion, SynthConfig
 
@@ -95,7 +95,7 @@ def sensor_columns() -> dict[str, slice]:
 class Scene:
     """A compiled base model for one shape, and the indices the simulator needs."""
 
-    shape: str
+    shape: SpecimenLike
     model: mujoco.MjModel
     specimen_geoms: np.ndarray  # geom ids of plate + pieces
     skin_geom: int
@@ -114,11 +114,12 @@ def _pad_height(finger: Finger) -> float:
     return finger.pad_radius_m
 
 
-def build_spec(shape: str, finger: Finger, motion: Motion) -> mujoco.MjSpec:
-    """The scene as an ``MjSpec`` (before per-trial contact parameters)."""
+def build_spec(shape: SpecimenLike, finger: Finger, motion: Motion) -> mujoco.MjSpec:
+    """The scene as an ``MjSpec`` (before per-trial contact parameters); ``shape`` is a
+    built-in shape's name or a ``shapes.Specimen``."""
     pieces = shapes.convex_pieces(shape) if motion.raised_shape else []
     spec = mujoco.MjSpec()
-    spec.modelname = f"tactile_{shape}"
+    spec.modelname = f"tactile_{specimen_name(shape)}"
     opt = spec.option
     opt.timestep = motion.timestep_s
     # Stiff drives need the implicit-in-velocity integrator; with the elliptic friction
@@ -276,7 +277,7 @@ _REDUCE_NETFORCE = 3
 
 
 @functools.lru_cache(maxsize=64)
-def _scene_cached(shape: str, finger_json: str, motion_json: str) -> Scene:
+def _scene_cached(shape: SpecimenLike, finger_json: str, motion_json: str) -> Scene:
     from .params import from_dict
 
     finger = from_dict(Finger, json.loads(finger_json))
@@ -299,8 +300,9 @@ def _scene_cached(shape: str, finger_json: str, motion_json: str) -> Scene:
     )
 
 
-def scene(shape: str, config: SynthConfig) -> Scene:
-    """The compiled scene for ``shape`` (cached per shape and finger/motion parameters)."""
+def scene(shape: SpecimenLike, config: SynthConfig) -> Scene:
+    """The compiled scene for ``shape``, a built-in shape's name or a ``shapes.Specimen``
+    (cached per shape and finger/motion parameters)."""
     # Every trial's plan asks, mostly with the same configuration objects: they are
     # answered by identity first (hashing the two sections takes longer than the rest of
     # the look-up). The entry keeps the sections alive, so their ids stay theirs.
@@ -318,11 +320,11 @@ def scene(shape: str, config: SynthConfig) -> Scene:
     return found
 
 
-_by_identity: dict[tuple[str, int, int], tuple[Finger, Motion, Scene]] = {}
+_by_identity: dict[tuple[SpecimenLike, int, int], tuple[Finger, Motion, Scene]] = {}
 
 
 @functools.lru_cache(maxsize=64)
-def _scene_for(shape: str, finger: Finger, motion: Motion) -> Scene:
+def _scene_for(shape: SpecimenLike, finger: Finger, motion: Motion) -> Scene:
     # Every trial's plan asks for its scene: this cache answers from the (frozen, hashable)
     # parameter sections, the one below from their serialised values, so that equal
     # parameters share one compiled model.

@@ -19,7 +19,8 @@ A trial's timeline (physics step ``Motion.timestep_s``):
    planned so that the contact phase's middle falls :data:`WINDOW_MARGIN_S` before the
    simulated record's end at the latest, whatever the pad's lag.
 
-All per-trial randomness derives from ``SeedSequence([trial seed, class index])``, spawned
+All per-trial randomness derives from ``SeedSequence([trial seed, class key])`` (the key:
+:func:`synth.trial.class_key`, the index into ``CLASS_NAMES`` for the paper's classes), spawned
 into independent streams (path, material, sensors, texture, noise), so a trial is
 bit-identical whatever batch, thread or process simulates it.
 """
@@ -40,14 +41,20 @@ import shapely
 from mujoco import _rollout
 
 import shapes
-from shapes import SPECIMEN
+from shapes import SPECIMEN, Specimen, SpecimenLike
 from tactile_synth.threads import rollout_threads
 
 from . import contact, kernels, sensors, texture
 from . import scene as scene_mod
-from .closed_loop import CLOCK_START_S, ClosedLoop, LoopTrial, timers_off
+from .closed_loop import (
+    CLOCK_START_S,
+    ClosedLoop,
+    LoopTrial,
+    force_loop_gain_m_per_n_s,
+    timers_off,
+)
 from .config import SynthConfig
-from .trial import N_SAMPLES, SAMPLE_RATE_HZ, WINDOW_S, Trial, TrialSpec, class_index
+from .trial import N_SAMPLES, SAMPLE_RATE_HZ, WINDOW_S, Trial, TrialSpec, class_key
 
 #: Most trials per rollout batch (bounds memory: about 2 MB of state and sensors per
 #: trial). Larger batches share the closed loop's per-period Python work among more
@@ -81,6 +88,9 @@ MAX_TRACKING_ERROR_M = 8e-3
 #: fast stroke runs off a wall: the stiff PDMS support leaves the skin's indentation as
 #: the only travel while the force loop lowers the arm (up to 34 ms measured at 0.6 N and
 #: 14 mm/s, the perturbation grid's corner); longer means the finger left the specimen.
+#: A specimen higher than the built-ins' 2 mm is allowed the time the force loop takes to
+#: lower the arm by the extra height at its fastest, with no force read
+#: (:func:`contact_gap_limit_s`).
 MAX_CONTACT_GAP_S = 0.05
 #: Resolution of the search for the first touch along the path.
 TOUCH_STEP_M = 20e-6
@@ -109,6 +119,8 @@ class Plan:
     jitter_s: float  # the extraction's offset of the window's middle from the phase's
     steps: int  # physics steps the record needs (a whole number of controller periods)
     noise_seed: np.random.SeedSequence
+    specimen: SpecimenLike  # the built-in shape's name or the configuration's Specimen
+    max_gap_s: float = MAX_CONTACT_GAP_S  # longest tolerated contact gap (contact_gap_limit_s)
 
     @property
     def x_ref(self) -> np.ndarray:
@@ -119,16 +131,25 @@ def steps_per_sample(config: SynthConfig) -> int:
     return round(1.0 / (config.motion.timestep_s * SAMPLE_RATE_HZ))
 
 
-def n_steps(config: SynthConfig, speed_mm_s: float, force_n: float) -> int:
+def n_steps(
+    config: SynthConfig, speed_mm_s: float, force_n: float, specimen: SpecimenLike | None = None
+) -> int:
     """Most physics steps any trial at ``speed_mm_s`` and ``force_n`` (before their
     scatter) can need:
-    up to the latest possible window end over every outline, rounded up to a whole number
-    of controller periods. Paths are planned this long; a batch runs only as many steps
-    as its trials' windows need."""
+    up to the latest possible window end over every built-in outline, rounded up to a
+    whole number of controller periods. Paths are planned this long; a batch runs only as
+    many steps as its trials' windows need. A user's ``specimen`` longer along x than the
+    built-ins' longest (18 mm), or higher than their 2 mm, gets the steps its own length
+    and touch distance need; the built-ins' count is the same for every one of them."""
     m, var = config.motion, config.variability
     speed = speed_mm_s * 1e-3 * (1 - 3 * var.speed_rel)
-    reach = touch_distance_m(config, force_n * (1 + 3 * var.force_rel))
-    phase_m = shapes.dims.MAX_EXTENT_RATIO * SPECIMEN.outline_size_m + 2 * reach
+    extent = shapes.dims.MAX_EXTENT_RATIO * SPECIMEN.outline_size_m
+    height = SPECIMEN.height_m
+    if isinstance(specimen, Specimen):
+        extent = max(extent, specimen.x_extent_m)
+        height = max(height, specimen.height_m)
+    reach = touch_distance_m(config, force_n * (1 + 3 * var.force_rel), height)
+    phase_m = extent + 2 * reach
     middle = max(m.approach_s + phase_m / (2 * speed), _earliest_middle_s(config))
     # The record runs to the later of the window's end and the exit edge's last touch
     # (the window is cut between the two edges the signals show), plus the margin.
@@ -153,17 +174,19 @@ def _scatter(rng: np.random.Generator, rel: float, size=None) -> np.ndarray | fl
     return 1.0 + rel * np.clip(rng.standard_normal(size), -3, 3)
 
 
-def touch_distance_m(config: SynthConfig, force_n: float) -> float:
-    """Horizontal distance from the pad's axis to a raised edge at which the skin (sunk
-    into the plate by its Hertz indentation at ``force_n``) first touches the edge."""
-    r, h = config.finger.pad_radius_m, SPECIMEN.height_m
+def touch_distance_m(config: SynthConfig, force_n: float, height_m: float | None = None) -> float:
+    """Horizontal distance from the pad's axis to a raised edge of ``height_m`` (default:
+    the built-ins' 2 mm) at which the skin (sunk into the plate by its Hertz indentation
+    at ``force_n``) first touches the edge."""
+    r = config.finger.pad_radius_m
+    h = SPECIMEN.height_m if height_m is None else height_m
     f = config.finger
     sink = float(contact.hertz_indentation_m(force_n, r, f.skin_modulus_pa, f.skin_poisson))
     return math.sqrt(max(r * r - (r - h - sink) ** 2, 0.0))
 
 
 def contact_phase_m(
-    shape: str, y_offset_m: float, yaw_rad: float, reach_m: float
+    shape: SpecimenLike, y_offset_m: float, yaw_rad: float, reach_m: float
 ) -> tuple[float, float]:
     """Path coordinates ``(first, last)`` between which the pad's axis is within
     ``reach_m`` of the raised outline (the path is ``(d cos yaw, y_offset + d sin yaw)``):
@@ -194,7 +217,10 @@ def contact_phase_m(
 
     lo, hi = edge(coarse, last=False), edge(coarse[::-1], last=True)
     if lo is None or hi is None:
-        raise ValueError(f"the path at y = {y_offset_m * 1e3:.2f} mm misses the {shape} outline")
+        raise ValueError(
+            f"the path at y = {y_offset_m * 1e3:.2f} mm misses the "
+            f"{shapes.specimen_name(shape)} outline"
+        )
     return float(d[lo]), float(d[hi])
 
 
@@ -203,8 +229,9 @@ _COARSE = 25
 
 
 @functools.lru_cache(maxsize=32)
-def _outline(shape: str) -> shapely.Polygon:
-    """The specimen outline of ``shape`` (every trial's plan measures its path against it)."""
+def _outline(shape: SpecimenLike) -> shapely.Polygon:
+    """The specimen outline of ``shape``, a built-in name or a ``Specimen`` (every trial's
+    plan measures its path against it)."""
     poly = shapes.outline(shape)
     shapely.prepare(poly)
     return poly
@@ -213,8 +240,10 @@ def _outline(shape: str) -> shapely.Polygon:
 def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
     """Draw the trial's variability and build its model, initial state and loop inputs."""
     var, mot, finger = config.variability, config.motion, config.finger
-    material = config.materials[spec.material]
-    root = np.random.SeedSequence([spec.seed, class_index(spec.shape, spec.material)])
+    specimen = config.specimen(spec.shape)
+    material = config.material(spec.material)
+    height = specimen.height_m if isinstance(specimen, Specimen) else SPECIMEN.height_m
+    root = np.random.SeedSequence([spec.seed, class_key(f"{spec.shape}/{spec.material}")])
     path_ss, material_ss, sensor_ss, texture_ss, noise_ss = root.spawn(5)
     path = np.random.default_rng(path_ss)
     force = spec.force_n * _scatter(path, var.force_rel)
@@ -225,7 +254,8 @@ def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
         yaw += mot.specimen_yaw_rad
     jitter = path.uniform(-0.5, 0.5) * var.window_jitter_s
     friction_scale = float(_scatter(np.random.default_rng(material_ss), var.friction_rel))
-    d_in, d_out = contact_phase_m(spec.shape, y_offset, yaw, touch_distance_m(config, force))
+    reach = touch_distance_m(config, force, height)
+    d_in, d_out = contact_phase_m(specimen, y_offset, yaw, reach)
     half_phase_s = (d_out - d_in) / (2 * speed)
     approach = max(mot.approach_s, _earliest_middle_s(config) - half_phase_s)
     d_start = d_in - speed * (mot.ramp_s / 2 + approach)
@@ -238,7 +268,7 @@ def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
     record_end = max(
         window_start + (N_SAMPLES + 1) * k, round((t_middle + half_phase_s) / mot.timestep_s)
     )
-    t = np.arange(n_steps(config, spec.speed_mm_s, spec.force_n)) * mot.timestep_s
+    t = np.arange(n_steps(config, spec.speed_mm_s, spec.force_n, specimen)) * mot.timestep_s
     d = d_start + travel(t - mot.settle_s, speed, mot.ramp_s)
     c, s = math.cos(yaw), math.sin(yaw)
     x_ref, y_ref = d * c, y_offset + d * s
@@ -261,7 +291,7 @@ def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
         force_n=force,
         mark_angle_rad=yaw,  # the marks run along the specimen's y, the ridges along the robot's
     )
-    sc = scene_mod.scene(spec.shape, config)
+    sc = scene_mod.scene(specimen, config)
     qpos = np.zeros(sc.model.nq)
     qi = sc.qpos_index
     preload = force / finger.pdms_normal_stiffness_n_m
@@ -300,7 +330,21 @@ def plan(spec: TrialSpec, config: SynthConfig) -> Plan:
             record_end + round(WINDOW_MARGIN_S / mot.timestep_s), mot.control_steps
         ),
         noise_seed=noise_ss,
+        specimen=specimen,
+        max_gap_s=contact_gap_limit_s(config, force, height),
     )
+
+
+def contact_gap_limit_s(config: SynthConfig, force_n: float, height_m: float) -> float:
+    """Longest contact gap a trial at ``force_n`` on a specimen ``height_m`` high may show:
+    :data:`MAX_CONTACT_GAP_S`, measured on the built-ins' 2 mm, plus, for a higher
+    specimen, the time the force loop takes to lower the arm by the extra height when it
+    reads no force (its fastest descent, ``gain x force_n``): a light stroke that runs
+    off a higher wall falls for longer before the skin meets the plate again."""
+    extra = max(height_m - SPECIMEN.height_m, 0.0)
+    if extra == 0.0:
+        return MAX_CONTACT_GAP_S
+    return MAX_CONTACT_GAP_S + extra / (force_loop_gain_m_per_n_s(config, force_n) * force_n)
 
 
 def _earliest_middle_s(config: SynthConfig) -> float:
@@ -393,7 +437,7 @@ def _roll_loop(
     for d in datas:
         mujoco.mj_resetData(plans[0].model, d)
     loop = ClosedLoop(
-        [p.model for p in plans], [p.loop for p in plans], config, shape=plans[0].spec.shape
+        [p.model for p in plans], [p.loop for p in plans], config, shape=plans[0].specimen
     )
     steps = max(p.steps for p in plans)
     run = loop.run_periods if periods else loop.run
@@ -561,11 +605,11 @@ def _process(
 def _check_trial(p: Plan, truth: dict[str, np.ndarray], finite: bool) -> None:
     """Raise :class:`SimulationError` for a trial whose physics went wrong: a non-finite
     sensor value (``finite`` False), a contact lost for longer than
-    ``MAX_CONTACT_GAP_S`` in its window, or a finger stuck behind its path."""
+    ``p.max_gap_s`` in its window, or a finger stuck behind its path."""
     if not finite:
         raise SimulationError(f"non-finite physics (NaN/inf) while simulating {_describe(p.spec)}")
     gap, where = _longest_run(truth["contacts"] < 1)
-    if gap / SAMPLE_RATE_HZ > MAX_CONTACT_GAP_S:
+    if gap / SAMPLE_RATE_HZ > p.max_gap_s:
         raise SimulationError(
             f"the finger lost contact with the specimen for {gap} ms from "
             f"t={truth['time_s'][where]:.3f} s while simulating {_describe(p.spec)}"
@@ -640,7 +684,7 @@ def simulate_batch(
     def roll(chunk: list[int]) -> tuple[list[Plan], tuple[np.ndarray, np.ndarray]]:
         shape = specs[chunk[0]].shape
         if shape not in datas:
-            base = scene_mod.scene(shape, config).model
+            base = scene_mod.scene(config.specimen(shape), config).model
             datas[shape] = [mujoco.MjData(base) for _ in range(threads)]
         plans = [plan(specs[i], config) for i in chunk]
         sens, heights, _ = _roll_loop(plans, datas[shape][: len(chunk)], config, periods=True)
@@ -754,7 +798,7 @@ def replay(spec: TrialSpec, config: SynthConfig | None = None):
     replaying its motion in a viewer."""
     config = _check_config(config)
     p = plan(spec, config)
-    loop = ClosedLoop([p.model], [p.loop], config, shape=spec.shape)
+    loop = ClosedLoop([p.model], [p.loop], config, shape=p.specimen)
     datas = [mujoco.MjData(p.model)]
     _, surface = loop.run(datas, _initial_states([p]), p.steps, 1, record_qpos=True)
     _check_stable(loop, [p], datas, config)
@@ -776,9 +820,11 @@ def simulate(
     Parameters
     ----------
     shape : str
-        The specimen (one of ``shapes.SHAPE_NAMES``).
+        The specimen: one of ``shapes.SHAPE_NAMES`` or a specimen of ``config``
+        (``SynthConfig.specimens``).
     material : str
-        Its material (one of ``synth.MATERIAL_NAMES``).
+        Its material: one of ``config``'s materials (the paper's ``synth.MATERIAL_NAMES``
+        by default).
     force_n, speed_mm_s : float
         The robot's normal-force set point (N) and sliding speed (mm/s).
     seed : int

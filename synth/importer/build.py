@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import difflib
 import hashlib
 import math
 import os
@@ -16,18 +17,20 @@ from typing import Any
 
 import numpy as np
 
+from shapes import SHAPE_NAMES
 from tactile_synth import atomic
 from tactile_synth.interrupts import StopRequests
 from tactile_synth.validation import check_int
 
 from .. import store
+from ..materials import MATERIAL_NAMES
 from ..presets import (
     MAX_CHUNK_TRIALS,
     TrialPlan,
     condition_name,
 )
 from ..progress import progress as show_progress
-from ..trial import CHANNELS, N_SAMPLES, SAMPLE_RATE_HZ, TrialSpec, class_index
+from ..trial import CHANNELS, N_SAMPLES, SAMPLE_RATE_HZ, TrialSpec
 from .errors import (
     CONTACT_FRACTION,
     CONTACT_SMOOTH_S,
@@ -60,16 +63,36 @@ class _Order:
     plan: TrialPlan
 
 
+def import_classes(pairs: Sequence[tuple[str, str]]) -> tuple[str, ...]:
+    """An imported dataset's class list: every ``(specimen, material)`` pair the labels
+    table holds, specimen-major, as a generated grid orders them: the built-in shapes in
+    the paper's order, then other specimens sorted by name; within a specimen, the
+    paper's materials in the paper's order, then other materials sorted by name. The
+    paper's classes thus keep their relative order."""
+
+    def specimen_key(name: str) -> tuple[int, int | str]:
+        return (0, SHAPE_NAMES.index(name)) if name in SHAPE_NAMES else (1, name)
+
+    def material_key(name: str) -> tuple[int, int | str]:
+        return (0, MATERIAL_NAMES.index(name)) if name in MATERIAL_NAMES else (1, name)
+
+    unique = set(pairs)
+    ordered = sorted(unique, key=lambda sm: (specimen_key(sm[0]), material_key(sm[1])))
+    return tuple(f"{s}/{m}" for s, m in ordered)
+
+
 def _store_order(rows: Sequence[LabelRow]) -> _Order:
-    """Rows sorted like a simulated store: condition (force, then speed), class, trial.
-    Rows without a trial number are numbered in table order within their class and
-    condition."""
+    """Rows sorted like a simulated store: condition (force, then speed), class (in the
+    order of :func:`import_classes`), trial. Rows without a trial number are numbered in
+    table order within their class and condition."""
     conditions = sorted({(r.force_n, r.speed_mm_s) for r in rows})
     cond_of = {c: i for i, c in enumerate(conditions)}
+    classes = import_classes([(r.shape, r.material) for r in rows])
+    label_of = {name: i for i, name in enumerate(classes)}
     counters: dict[tuple[int, int], int] = {}
     keyed = []
     for r in rows:
-        label = class_index(r.shape, r.material)
+        label = label_of[f"{r.shape}/{r.material}"]
         cond = cond_of[(r.force_n, r.speed_mm_s)]
         if r.trial is None:
             trial = counters.get((label, cond), 0)
@@ -86,6 +109,7 @@ def _store_order(rows: Sequence[LabelRow]) -> _Order:
         force_n=np.array([r.force_n for r in ordered], dtype=np.float64),
         speed_mm_s=np.array([r.speed_mm_s for r in ordered], dtype=np.float64),
         seed=np.zeros(len(ordered), dtype=np.int64),
+        classes=classes,
     )
     return _Order(ordered, conditions, plan)
 
@@ -263,7 +287,29 @@ def import_recordings(
         warnings.warn(
             _resampling_note(summary.resampled, len(rows)), RecordingWarning, stacklevel=2
         )
+    for note in near_misses(rows):
+        warnings.warn(note, RecordingWarning, stacklevel=2)
     return summary
+
+
+def near_misses(rows: Sequence[LabelRow]) -> list[str]:
+    """A note for each specimen or material name of the table that is not one of the
+    paper's but is close to one (``circel``): any name is a class of its own, so a typo
+    would silently make one."""
+    notes = []
+    for column, known in (("shape", SHAPE_NAMES), ("material", MATERIAL_NAMES)):
+        first: dict[str, int] = {}
+        for r in rows:
+            first.setdefault(getattr(r, column), r.line)
+        for name, line in first.items():
+            close = difflib.get_close_matches(name, known, n=1, cutoff=0.8)
+            if name not in known and close:
+                notes.append(
+                    f"{column} {name!r} (labels line {line}) is not one of the paper's "
+                    f"{column}s but is close to {close[0]!r}; it was imported as a {column} "
+                    f"of its own (check the spelling)"
+                )
+    return notes
 
 
 def _resampling_note(resampled: dict[float, int], n: int) -> str:

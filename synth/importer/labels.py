@@ -8,15 +8,13 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
-from shapes import SHAPE_NAMES
 from tactile_synth.validation import check_choice, parse_number
 
-from ..materials import MATERIAL_NAMES
 from ..presets import (
     PHYSICAL_FORCE_RANGE_N,
     PHYSICAL_SPEED_RANGE_MM_S,
 )
-from ..trial import class_index
+from ..trial import check_name
 from .errors import (
     LABEL_COLUMNS,
     MAX_SAMPLE_RATE_HZ,
@@ -143,7 +141,7 @@ def read_labels(labels: str | Path, recordings: str | Path) -> list[LabelRow]:
     problems: list[str] = []
     rows: list[LabelRow] = []
     seen_files: dict[Path, int] = {}
-    seen_trials: dict[tuple[int, float, float, int], int] = {}
+    seen_trials: dict[tuple[str, float, float, int], int] = {}
     seen_seeds: dict[int, int] = {}
     for cells in reader:
         line = reader.line_num
@@ -171,7 +169,7 @@ def read_labels(labels: str | Path, recordings: str | Path) -> list[LabelRow]:
         if not row.path.is_file():
             problems.append(f"{where}: file {row.file} does not exist (looked for {row.path})")
         if row.trial is not None:
-            tkey = (class_index(row.shape, row.material), row.force_n, row.speed_mm_s, row.trial)
+            tkey = (f"{row.shape}/{row.material}", row.force_n, row.speed_mm_s, row.trial)
             if tkey in seen_trials:
                 problems.append(
                     f"{where}: trial {row.trial} of {row.shape}/{row.material} at "
@@ -199,8 +197,9 @@ def _label_row(values: dict[str, str], line: int, recordings: Path) -> LabelRow:
     if Path(file).suffix.lower() not in RECORDING_SUFFIXES:
         raise Bad(f"file {file} is neither a .csv nor a .npz recording")
     try:
-        shape = check_choice("shape", values["shape"].lower(), SHAPE_NAMES)
-        material = check_choice("material", values["material"].lower(), MATERIAL_NAMES)
+        # Any specimen and material: the paper's names or a lab's own.
+        shape = check_name("column shape", values["shape"].lower())
+        material = check_name("column material", values["material"].lower())
     except ValueError as exc:
         raise Bad(str(exc)) from None
     force = _in_range(_number(values["force_n"], "force_n"), "force_n", "N", PHYSICAL_FORCE_RANGE_N)

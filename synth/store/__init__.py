@@ -3,7 +3,7 @@
 Layout (a plain ``zarr.open_group(path)`` reads all of it)::
 
     signals      float32 (n, 4, T)   chunks (chunk_trials, 4, T), Blosc-zstd + byte shuffle
-    label        int16   (n,)        index into attrs classes (the 36 CLASS_NAMES)
+    label        int16   (n,)        index into attrs classes (the dataset's own class list)
     condition    int16   (n,)        index into attrs conditions
     trial_index  int32   (n,)        trial number within its (class, condition)
     force_n      float64 (n,)
@@ -17,7 +17,10 @@ so any zarr reader detects a truncated or bit-flipped file. Trial order is canon
 (condition, class, trial index), fixed by the configuration, so chunk k always holds the
 same trials; the per-trial arrays are the plan of that configuration, written when the
 store is created. The group attribute ``tactile_synth`` (format version, configuration,
-versions, store id, creation time) is written last and marks a usable store.
+class list, versions, store id, creation time) is written last and marks a usable store.
+Its ``classes`` is the dataset's class list, ``"<specimen>/<material>"`` names
+specimen-major (a simulated store's is its configuration's ``GenerationConfig.classes``:
+the paper's 36 for the paper presets, any set for a user's experiment).
 
 A chunk task writes its ``signals`` chunk (zarr writes each chunk file to a temporary name
 and renames it), flushes it to the disk, writes ``checksum[k]`` and only then ``done[k]``,

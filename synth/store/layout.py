@@ -16,8 +16,9 @@ from ..trial import CHANNELS, N_SAMPLES
 
 #: Bumped whenever the layout above changes incompatibly or the simulator writes other
 #: signals for the same configuration (a store is only resumed by the simulator that
-#: started it).
-FORMAT_VERSION: int = 10
+#: started it). Version 11: ``label`` indexes the store's own class list (attribute
+#: ``classes``, the grid's classes), no longer the paper's 36 names.
+FORMAT_VERSION: int = 11
 ATTR_KEY = "tactile_synth"
 #: The two kinds of store (attribute ``kind``; a store without it is simulated).
 KIND_SIMULATED = "simulated"

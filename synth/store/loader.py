@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 
 from ..dataset import Dataset
-from ..trial import CHANNELS, CLASS_NAMES, N_SAMPLES
-from .errors import DatasetError, DatasetIncomplete
+from ..trial import CHANNELS, N_SAMPLES
+from .errors import DatasetIncomplete
 from .meta import DatasetDamaged
 from .reader import Store
 
@@ -29,8 +29,9 @@ def load_dataset(path: str | Path, *, allow_incomplete: bool = False) -> Dataset
     Returns
     -------
     Dataset
-        ``signals`` float32 ``(n, 4, 2000)`` and the aligned per-trial arrays; ``attrs``
-        holds the provenance (versions, configuration, creation time).
+        ``signals`` float32 ``(n, 4, 2000)`` and the aligned per-trial arrays; ``label``
+        indexes ``classes``, the store's own class list (``"<specimen>/<material>"``);
+        ``attrs`` holds the provenance (versions, configuration, creation time).
 
     Raises
     ------
@@ -65,9 +66,7 @@ def load_dataset(path: str | Path, *, allow_incomplete: bool = False) -> Dataset
     problems += chunk_problems
     if problems:
         raise DatasetDamaged(path, problems)
-    classes = tuple(store.meta["classes"])
-    if classes != CLASS_NAMES:
-        raise DatasetError(f"dataset {path} lists classes that differ from synth.CLASS_NAMES")
+    classes = store.classes  # checked by Store.open; the labels by check_plan
     rows = np.zeros(store.n_trials, dtype=bool)
     for k in chunks:
         rows[store.rows(k)] = True

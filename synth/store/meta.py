@@ -11,12 +11,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from shapes import SHAPE_NAMES
+from shapes.specimen import NAME_PATTERN
 from tactile_synth import atomic
 from tactile_synth.atomic import enclosing_store, is_store
 
 from .. import config as config_mod
-from ..materials import MATERIAL_NAMES
 from ..presets import PRESETS, GenerationConfig
 from .errors import DatasetError, Problem
 from .layout import (
@@ -242,6 +241,43 @@ def config_of(path: Path, meta: dict[str, Any]) -> GenerationConfig:
         ) from None
 
 
+def check_classes(
+    path: Path, meta: dict[str, Any], config: GenerationConfig | None = None
+) -> tuple[str, ...]:
+    """The store's class list (attribute ``classes``), checked: a non-empty list of unique
+    ``"<specimen>/<material>"`` names (each part a specimen or material name), and for a
+    simulated store (``config``) the classes of its configuration. A one-line
+    :class:`DatasetError` naming the file otherwise."""
+    meta_file = path / "zarr.json"
+    classes = meta.get("classes")
+    rule = 'a list of unique "<specimen>/<material>" names'
+    if not isinstance(classes, list) or not classes:
+        raise DatasetError(
+            f"{meta_file} holds no valid classes ({rule}); got {classes!r}",
+            rebuild_advice(path, meta),
+        )
+    for name in classes:
+        parts = name.split("/") if isinstance(name, str) else []
+        if len(parts) != 2 or not all(NAME_PATTERN.fullmatch(p) for p in parts):
+            raise DatasetError(
+                f"{meta_file} holds no valid classes ({rule}); {name!r} is not one",
+                rebuild_advice(path, meta),
+            )
+    repeated = sorted({c for c in classes if classes.count(c) > 1})
+    if repeated:
+        raise DatasetError(
+            f"{meta_file} holds no valid classes ({rule}); {repeated[0]!r} appears twice",
+            rebuild_advice(path, meta),
+        )
+    if config is not None and tuple(classes) != config.classes:
+        raise DatasetError(
+            f"{meta_file} lists classes that differ from its configuration's "
+            f"({len(classes)} there, {len(config.classes)} in the configuration)",
+            rebuild_advice(path, meta),
+        )
+    return tuple(classes)
+
+
 def check_imported_meta(path: Path, meta: dict[str, Any]) -> None:
     """An imported store's attributes hold its geometry and the checksums of its per-trial
     arrays; an import that stopped before writing them is refused as unfinished."""
@@ -277,11 +313,14 @@ def check_imported_meta(path: Path, meta: dict[str, Any]) -> None:
             f"{', '.join(PLAN_ARRAYS)})",
             rebuild_advice(path, meta),
         )
-    for key, allowed in (("shapes", SHAPE_NAMES), ("materials", MATERIAL_NAMES)):
+    classes = check_classes(path, meta)
+    for key, part in (("shapes", 0), ("materials", 1)):
         names = meta.get(key)
-        if not isinstance(names, list) or not names or any(x not in allowed for x in names):
+        expected = list(dict.fromkeys(c.split("/")[part] for c in classes))
+        if names != expected:
             raise DatasetError(
-                f"{meta_file} holds no valid {key} (names from {', '.join(allowed)})",
+                f"{meta_file} holds no valid {key} (the {key} of its classes, in their order: "
+                f"{', '.join(expected)})",
                 rebuild_advice(path, meta),
             )
     conditions = meta.get("conditions")

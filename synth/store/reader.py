@@ -17,6 +17,7 @@ from .checksums import array_checksum, chunk_checksum
 from .errors import DatasetError, DatasetIncomplete, Problem
 from .layout import KIND_IMPORTED, PLAN_ARRAYS, PLAN_DTYPES, chunk_file
 from .meta import (
+    check_classes,
     check_format,
     check_imported_meta,
     config_of,
@@ -51,6 +52,7 @@ class Store:
             config = None
         else:
             config = config_of(path, meta)
+            check_classes(path, meta, config)
         try:
             group = zarr.open_group(path, mode=mode, zarr_format=3)
         except (ValueError, KeyError, TypeError) as exc:  # pragma: no cover - read above
@@ -123,13 +125,18 @@ class Store:
         return self.config.n_chunks if self.config is not None else int(self.meta["n_chunks"])
 
     @property
+    def classes(self) -> tuple[str, ...]:
+        """The dataset's class list: ``label`` indexes it."""
+        return tuple(self.meta["classes"])
+
+    @property
     def shapes(self) -> tuple[str, ...]:
-        """The shapes of the dataset's classes (paper order)."""
+        """The shapes (specimens) of the dataset's classes, in their order."""
         return self.config.shapes if self.config is not None else tuple(self.meta["shapes"])
 
     @property
     def materials(self) -> tuple[str, ...]:
-        """The materials of the dataset's classes (paper order)."""
+        """The materials of the dataset's classes, in their order."""
         if self.config is not None:
             return self.config.materials
         return tuple(self.meta["materials"])
@@ -168,7 +175,7 @@ class Store:
         if self.config is not None:
             return plan(self.config)
         values, _ = self._stored_trials
-        return TrialPlan(**values)
+        return TrialPlan(**values, classes=self.classes)
 
     @cached_property
     def _stored_trials(self) -> tuple[dict[str, np.ndarray], dict[str, str]]:
@@ -328,6 +335,18 @@ class Store:
                     else "fails its checksum (edited, or copied from another dataset)"
                 )
                 problems.append(Problem(name, file, why))
+            elif name == "label" and values[name].size:
+                k = len(self.classes)
+                bad = np.flatnonzero((values[name] < 0) | (values[name] >= k))
+                if bad.size:
+                    problems.append(
+                        Problem(
+                            name,
+                            file,
+                            f"holds labels outside the {k} classes at {bad.size} trials "
+                            f"(first: trial {int(bad[0])})",
+                        )
+                    )
         return problems
 
     def verify(self) -> list[Problem]:

@@ -13,12 +13,10 @@ from typing import Any
 
 import numpy as np
 
-from shapes import SHAPE_NAMES
 from tactile_synth import atomic
 
-from ..materials import MATERIAL_NAMES
 from ..presets import GenerationConfig, TrialPlan, condition_name, plan
-from ..trial import CHANNELS, CLASS_NAMES, N_SAMPLES, SAMPLE_RATE_HZ, TrialSpec, class_index
+from ..trial import CHANNELS, N_SAMPLES, SAMPLE_RATE_HZ, TrialSpec
 from .checksums import array_checksum, chunk_checksum
 from .errors import DatasetError, DatasetLocked
 from .layout import (
@@ -124,7 +122,7 @@ def create(path: str | Path, config: GenerationConfig) -> str:
         "store_id": store_id,
         "created_at": _now(),
         "config": config.to_dict(),
-        "classes": list(CLASS_NAMES),
+        "classes": list(config.classes),
         "channels": list(CHANNELS),
         "conditions": [condition_name(f, s) for f, s in config.conditions],
         "sample_rate_hz": SAMPLE_RATE_HZ,
@@ -142,15 +140,18 @@ def create_imported(
     chunk_trials: int,
 ) -> str:
     """Create an imported store's skeleton at an absent or empty ``path``: the per-trial
-    arrays of ``trials`` (in store order; ``condition`` indexes ``conditions``), no
-    signal yet. Its chunks are written with :func:`write_chunk`, then
-    :func:`finish_imported` writes the trials' seeds (``trials.seed`` holds placeholders
-    until then) and records the array checksums and provenance. Returns the store's id.
+    arrays of ``trials`` (in store order; ``condition`` indexes ``conditions``, ``label``
+    its ``classes``, recorded as the store's class list), no signal yet. Its chunks are
+    written with :func:`write_chunk`, then :func:`finish_imported` writes the trials'
+    seeds (``trials.seed`` holds placeholders until then) and records the array
+    checksums and provenance. Returns the store's id.
     """
     path = Path(path)
     n = len(trials)
     if n == 0:
         raise ValueError("an imported dataset needs at least one trial")
+    if not trials.classes:
+        raise ValueError("an imported dataset's plan must name its classes")
     group = _create_arrays(path, trials, chunk_trials)
     store_id = uuid.uuid4().hex
     # No array checksums yet: Store.open refuses it as an unfinished import until
@@ -161,7 +162,7 @@ def create_imported(
         **versions(),
         "store_id": store_id,
         "created_at": _now(),
-        "classes": list(CLASS_NAMES),
+        "classes": list(trials.classes),
         "channels": list(CHANNELS),
         "conditions": [condition_name(f, s) for f, s in conditions],
         "sample_rate_hz": SAMPLE_RATE_HZ,
@@ -185,13 +186,10 @@ def finish_imported(path: str | Path, seed: np.ndarray, provenance: dict[str, An
     sums = {}
     for name, dtype in PLAN_DTYPES.items():
         sums[name] = array_checksum(np.asarray(group[name][:]), dtype)
-    shapes_, materials = set(), set()
-    for cls in np.unique(np.asarray(group["label"][:])):
-        shape, material = CLASS_NAMES[int(cls)].split("/")
-        shapes_.add(shape)
-        materials.add(material)
-    meta["shapes"] = [s for s in SHAPE_NAMES if s in shapes_]
-    meta["materials"] = [m for m in MATERIAL_NAMES if m in materials]
+    # The specimens and materials of the class list, in its order.
+    names = [c.split("/") for c in meta["classes"]]
+    meta["shapes"] = list(dict.fromkeys(s for s, _ in names))
+    meta["materials"] = list(dict.fromkeys(m for _, m in names))
     meta["array_checksums"] = sums
     meta["import"] = provenance
     group.attrs[ATTR_KEY] = meta
@@ -214,6 +212,7 @@ def write_chunk(
     path = Path(path)
     group = zarr.open_group(path, mode="r+", zarr_format=3)
     meta = group.attrs.get(ATTR_KEY) or {}
+    classes = {name: i for i, name in enumerate(meta.get("classes") or ())}
     if meta.get("store_id") != store_id:
         raise DatasetError(
             f"dataset {path} was replaced by another writer while chunk {chunk} was being "
@@ -230,9 +229,15 @@ def write_chunk(
             f"chunk {chunk} signals must be float32 {expected} for {expected[0]} specs; "
             f"got {signals.dtype} {signals.shape} for {len(specs)} specs"
         )
+    unknown = [f"{s.shape}/{s.material}" for s in specs if f"{s.shape}/{s.material}" not in classes]
+    if unknown:
+        raise ValueError(
+            f"chunk {chunk}: class {unknown[0]} is not in the dataset's class list "
+            f"({', '.join(classes)})"
+        )
     crc = chunk_checksum(
         signals,
-        np.array([class_index(s.shape, s.material) for s in specs], dtype=np.int16),
+        np.array([classes[f"{s.shape}/{s.material}"] for s in specs], dtype=np.int16),
         np.array([s.force_n for s in specs], dtype=np.float64),
         np.array([s.speed_mm_s for s in specs], dtype=np.float64),
         np.array([s.seed for s in specs], dtype=np.int64),
