@@ -35,13 +35,11 @@ import os
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import MISSING, dataclass, fields
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
 
 from tactile_synth.validation import check_choice
-
-from .evaluate import EvalResult
 
 #: Layout version of the records, written into every record as ``schema_version`` and
 #: checked by :func:`read_results`. Raise it when a field changes meaning, type or unit,
@@ -313,6 +311,19 @@ Record = (
 )
 
 
+class CellScores(Protocol):
+    """What an accuracy record is made of: the scores and timings of one cell's episodes
+    (:class:`benchmark.evaluate.EvalResult` has them)."""
+
+    episodes: int
+    accuracy: float
+    ci95: float
+    batch_ms_per_episode: float
+    latency_ms_per_episode: float | None
+    latency_with_features_ms_per_episode: float | None
+    latency_episodes: int
+
+
 def accuracy_record(
     *,
     protocol: str,
@@ -322,7 +333,7 @@ def accuracy_record(
     way: int,
     shot: int,
     query: int,
-    result: EvalResult,
+    result: CellScores,
     pretrain_s: float,
     feature_dim: int | None,
 ) -> AccuracyRecord:

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import FewShotMethod
+from .base import DScanCurve, FewShotMethod, FitDetails
 from .dscan import DEFAULT_CANDIDATES, dscan
 from .features import FEATURE_NAMES, pool_of
 from .ncfs import DEFAULT_SIGMA, NCFS, select_lambda
@@ -101,6 +101,24 @@ class AFOPML(FewShotMethod):
         self.dscan_ = scan.as_dict()
         self.D_ = scan.best
         self.selected_ = self.ncfs_.ranking_[: self.D_].copy()
+
+    def fit_details(self) -> FitDetails:
+        """The top-D features (``selected_``) and the D-scan they were chosen by
+        (``dscan_``), for the benchmark's ``selection`` and ``dscan`` records."""
+        details = super().fit_details()
+        if getattr(self, "selected_", None) is None:
+            return details
+        scan = self.dscan_
+        return FitDetails(
+            selected=tuple(np.asarray(self.selected_).tolist()),
+            dscan=DScanCurve(
+                tuple(np.asarray(scan["D"]).tolist()),
+                tuple(np.asarray(scan["mean"]).tolist()),
+                tuple(np.asarray(scan["ci95"]).tolist()),
+            ),
+            meta_curve=details.meta_curve,
+            meta_gradient=details.meta_gradient,
+        )
 
     @property
     def selected_names_(self) -> tuple[str, ...]:

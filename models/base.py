@@ -14,6 +14,7 @@ from __future__ import annotations
 import inspect
 from abc import ABC, abstractmethod
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import ClassVar, Self
 
 import numpy as np
@@ -31,6 +32,60 @@ SETTING_KINDS: dict[str, Callable[[str, object], object]] = {
 
 class NotFittedError(RuntimeError):
     """``predict_episodes`` was called before ``fit``."""
+
+
+@dataclass(frozen=True)
+class DScanCurve:
+    """The validation curve a feature-space size D was chosen on.
+
+    Parameters
+    ----------
+    sizes : tuple of int
+        The candidate sizes D.
+    mean : tuple of float
+        Mean validation accuracy of each candidate.
+    ci95 : tuple of float
+        Its 95 % confidence half-width.
+    """
+
+    sizes: tuple[int, ...]
+    mean: tuple[float, ...]
+    ci95: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class FitDetails:
+    """What a fitted method exposes beyond its predictions (:meth:`FewShotMethod.fit_details`);
+    the benchmark writes each part as a record of the fit (``docs/results.md``).
+
+    Parameters
+    ----------
+    selected : tuple of int or None
+        Indices into :data:`models.features.FEATURE_NAMES` of the features the method
+        selected (AFOP-ML: its top-D features): a ``selection`` record with D = their
+        number and their PVDF/SG shares (:func:`models.features.sensor_shares`). The
+        record carries no method name: the report and the interpretability analysis read
+        it as AFOP-ML's, so a run should hold one method that reports a selection.
+    dscan : DScanCurve or None
+        The validation curve D was chosen on: a ``dscan`` record.
+    meta_curve : numpy.ndarray or None
+        ``(n, 2)`` rows of (outer step, validation accuracy) of a meta-learner's
+        meta-training: a ``meta_curve`` record.
+    meta_gradient : str or None
+        How the meta-gradient is computed (``"first-order"``), written beside the curve.
+
+    Examples
+    --------
+    >>> FitDetails().selected is None
+    True
+    >>> FitDetails(selected=(3, 7)).selected
+    (3, 7)
+    """
+
+    selected: tuple[int, ...] | None = None
+    dscan: DScanCurve | None = None
+    meta_curve: np.ndarray | None = None
+    meta_gradient: str | None = None
 
 
 def _check_index_array(arg: str, value: object, ndim: int, n_pool: int) -> np.ndarray:
@@ -154,6 +209,20 @@ class FewShotMethod(ABC):
                 f"{self.name} returned predictions of shape {pred.shape}, expected {q.shape}"
             )
         return pred
+
+    def fit_details(self) -> FitDetails:
+        """What the fitted method exposes beyond its predictions, for the benchmark's
+        records of each fit (:class:`FitDetails`); called after :meth:`fit`.
+
+        The default reports a meta-training curve when the method has one: the
+        ``meta_curve_`` attribute (``(n, 2)`` rows of outer step and validation
+        accuracy) and the ``meta_gradient`` attribute beside it; nothing else. A method
+        that selects features overrides it (AFOP-ML).
+        """
+        curve = getattr(self, "meta_curve_", None)
+        if curve is None:
+            return FitDetails()
+        return FitDetails(meta_curve=curve, meta_gradient=getattr(self, "meta_gradient", None))
 
     @abstractmethod
     def _fit(self, signals: np.ndarray, labels: np.ndarray, features: np.ndarray | None) -> None:
