@@ -45,7 +45,7 @@ class Features:
     Examples
     --------
     >>> from tests.synthetic_data import make_dataset
-    >>> data = make_dataset(trials_per_class=1, n_samples=64)
+    >>> data = make_dataset(trials_per_class=1, n_samples=200)
     >>> Features().of(data).shape
     (36, 386)
     """

@@ -25,7 +25,7 @@ Examples
 >>> records = run_protocol(get("cross-material"), data, methods=["Direct-Prot-ML"],
 ...                        episodes=5, seed=0)
 >>> sorted({r["fold"] for r in records if r["record"] == "accuracy"}, key=str)
-['aluminum', 'resin', 'wood', None]
+[None, 'aluminum', 'resin', 'wood']
 """
 
 from __future__ import annotations

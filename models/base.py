@@ -127,12 +127,53 @@ def check_episodes(support: object, query: object, n_pool: int) -> tuple[np.ndar
 
 
 class FewShotMethod(ABC):
-    """Base class: subclasses set ``name`` and implement ``_fit`` and ``_predict``.
+    """The interface of every few-shot method: subclasses set ``name`` and implement
+    ``_fit`` and ``_predict`` (``docs/methods.md``).
 
-    Parameters are set only in ``__init__``; learned attributes end in ``_``.
-    ``features`` arguments are the raw (unscaled) 386-feature pool of
-    :func:`models.features.extract` for the same trials, passed when the caller has
-    already computed them; methods that need them compute them when ``None``.
+    Parameters are set only in ``__init__`` (keyword-only, each a setting a user may
+    change with ``--method-option``); learned attributes end in ``_``. ``features``
+    arguments are the raw (unscaled) 386-feature pool of :func:`models.features.extract`
+    for the same trials, passed when the caller has already computed them; methods that
+    need them compute them when ``None``.
+
+    Parameters
+    ----------
+    seed : int, default 0
+        Seeds everything random in the method: the same seed gives the same predictions.
+
+    Attributes
+    ----------
+    name : str
+        The method's name in results and on the command line (a class attribute).
+    cost_hint : tuple of float
+        Rough CPU seconds of one fit and of 1000 evaluated episodes (a class attribute:
+        only orders the queue of fits).
+    fitted_ : bool
+        Whether :meth:`fit` has run.
+
+    Examples
+    --------
+    A nearest-class-mean method on the channels' means:
+
+    >>> import numpy as np
+    >>> class NearestMean(FewShotMethod):
+    ...     name = "nearest-mean"
+    ...     def _fit(self, signals, labels, features):
+    ...         pass  # nothing to learn from the training classes
+    ...     def _predict(self, signals, support, query, features):
+    ...         x = signals.mean(axis=2)
+    ...         protos = x[support].mean(axis=2)  # (E, N, channels)
+    ...         d = ((x[query][:, :, None] - protos[:, None]) ** 2).sum(-1)
+    ...         return d.argmin(axis=2)
+    >>> from tests.synthetic_data import make_dataset
+    >>> data = make_dataset(trials_per_class=3, n_samples=200, noise=0.1)
+    >>> from models.episodes import sample_episodes
+    >>> batch = sample_episodes(data.label, n_way=5, k_shot=1, n_query=2, episodes=8, seed=0)
+    >>> model = NearestMean(seed=0).fit(data.signals, data.label)
+    >>> model.predict_episodes(data.signals, batch.support, batch.query).shape
+    (8, 10)
+    >>> model.fit_details()
+    FitDetails(selected=None, dscan=None, meta_curve=None, meta_gradient=None)
     """
 
     name: ClassVar[str]
