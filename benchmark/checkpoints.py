@@ -10,7 +10,7 @@ Records are written and read through :mod:`benchmark.results` (schema version ch
 typed on load); a damaged or foreign file counts as no checkpoint.
 
 A fit checkpoint (:class:`FitCheckpoints`) holds one method's results on one fit group
-(:class:`benchmark.engine.FitGroup`) under a key made of the keys of the protocols its
+(:class:`benchmark.fit_groups.FitGroup`) under a key made of the keys of the protocols its
 shares belong to, their tasks and the method: an interrupted run continues with the fits
 that were not finished. Once every protocol of a run is checkpointed they are deleted.
 """
@@ -31,10 +31,11 @@ import numpy as np
 
 from synth import Dataset
 
+from .fits import FitResult
 from .results import from_json, to_json
 
 if TYPE_CHECKING:
-    from .engine import FitGroup, FitResult
+    from .fit_groups import FitGroup
 
 T = TypeVar("T")
 
@@ -195,8 +196,6 @@ class FitCheckpoints:
     def load(self, group: FitGroup, name: str) -> FitResult | None:
         """The results saved for ``name`` on ``group``, or None (none, damaged, or saved
         under another key)."""
-        from .engine import FitResult
-
         fit_key = self._key(group, name)
         result = _read(self._path(fit_key), fit_key, "result", FitResult.from_obj)
         if result is None or len(result.shares) != len(group.shares):

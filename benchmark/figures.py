@@ -26,9 +26,8 @@ from shapes import SHAPE_NAMES
 from synth import CHANNELS, MATERIAL_NAMES, SAMPLE_RATE_HZ, Dataset
 from synth.presets import NOMINAL_FORCE_N, NOMINAL_SPEED_MM_S
 
-from .engine import WITHIN_CONDITION, condition_reading
 from .interpret import Artefacts
-from .protocols.perturbation import ENROLLED, POOLED
+from .labels import ENROLLED, POOLED, WITHIN_CONDITION, condition_reading
 from .results import select
 
 #: Panel order and titles of Fig. 5; the perturbation protocol's readings each have their

@@ -42,27 +42,33 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from models.features import sensor_shares
 from tactile_synth.validation import check_int
+
+from .labels import CLOSED_SET
+from .results import Record, select, tsne_record
+from .splits import split_halves
 
 if TYPE_CHECKING:
     from synth import Dataset
 
-    from .engine import Features
-    from .results import Record
+    from .cells import Features
 
-
-def sensor_shares(selected: Sequence[int], feature_names: Sequence[str]) -> tuple[float, float]:
-    """(PVDF share, SG share) among the ``selected`` feature indices.
-
-    Feature names are ``<channel>.<domain>.<statistic>``; channels ``pvdf*`` and ``sg*``.
-    """
-    sel = [int(i) for i in selected]
-    if not sel:
-        raise ValueError("selected must hold at least one feature index")
-    channels = [feature_names[i].split(".", 1)[0] for i in sel]
-    pvdf = sum(c.startswith("pvdf") for c in channels)
-    sg = sum(c.startswith("sg") for c in channels)
-    return pvdf / len(sel), sg / len(sel)
+__all__ = [
+    "DGI_K",
+    "Artefacts",
+    "Indicators",
+    "analyse",
+    "dgi",
+    "dgi_random",
+    "indicators",
+    "mixing_silhouette",
+    "nearest_neighbours",
+    "nn1_accuracy",
+    "sensor_shares",
+    "standardise",
+    "tsne_embedding",
+]
 
 
 #: Neighbours per point in the DGI's k-nearest-neighbour graph (see the module docstring).
@@ -257,11 +263,7 @@ def analyse(
 
     episodes: episodes per way of the reference curve (for the figure notes).
     """
-    from .protocols.closed_set import PROTOCOL
-    from .results import select, tsne_record
-    from .splits import split_halves
-
-    sel = select(records, "selection", protocol=PROTOCOL, fold=None)
+    sel = select(records, "selection", protocol=CLOSED_SET, fold=None)
     if len(sel) != 1 or sel[0].get("selected") is None:
         raise ValueError(
             "the interpretability analysis needs the closed-set AFOP-ML fit's selection "
@@ -270,7 +272,7 @@ def analyse(
         )
     chosen_d = int(sel[0]["D"])
     selected = np.asarray(sel[0]["selected"], dtype=np.intp)
-    scans = select(records, "dscan", protocol=PROTOCOL, fold=None)
+    scans = select(records, "dscan", protocol=CLOSED_SET, fold=None)
     dscan = {k: list(scans[0][k]) for k in ("D", "mean", "ci95")} if scans else None
     test = split_halves(data.label, seed=seed)[1]
     top = features.of(data)[test][:, selected]
@@ -288,7 +290,7 @@ def analyse(
         "embedding_mix_sil": flat.mix_sil,
         "embedding_dgi": flat.dgi,
     }
-    out: list[Record] = [tsne_record(protocol=PROTOCOL, D=chosen_d, **values)]
+    out: list[Record] = [tsne_record(protocol=CLOSED_SET, D=chosen_d, **values)]
     art = Artefacts(
         dscan=dscan,
         chosen_d=chosen_d,

@@ -14,8 +14,8 @@ from typing import Any
 from models.registry import DEFAULT_METHODS
 
 from .budget import Budget
-from .engine import check_methods
 from .guards import generate_for_run
+from .methods import check_methods
 
 
 def log(progress: bool, msg: str) -> None:

@@ -22,8 +22,7 @@ from synth import Dataset
 
 from . import paper_reference as paper
 from .checkpoints import fingerprint
-from .engine import condition_reading
-from .protocols.perturbation import ENROLLED, READINGS
+from .labels import ENROLLED, READINGS, condition_reading
 from .results import select
 from .tables import (
     BEYOND_THE_PAPER,
@@ -314,7 +313,7 @@ def generalisation_section(records: Sequence[dict], meta: Mapping[str, Any]) -> 
 
 
 #: The readings of the perturbation protocol with per-condition records: (reading of
-#: :func:`benchmark.engine.condition_reading`, title).
+#: :func:`benchmark.labels.condition_reading`, title).
 HEATMAP_READINGS: tuple[tuple[str | None, str], ...] = (
     (None, "within one condition (support and queries from it)"),
     (ENROLLED, "enrolled at nominal (support from the nominal test half, queries from it)"),

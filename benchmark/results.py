@@ -35,13 +35,11 @@ import os
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import MISSING, dataclass, fields
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
 
 from tactile_synth.validation import check_choice
-
-from .evaluate import EvalResult
 
 #: Layout version of the records, written into every record as ``schema_version`` and
 #: checked by :func:`read_results`. Raise it when a field changes meaning, type or unit,
@@ -313,6 +311,19 @@ Record = (
 )
 
 
+class CellScores(Protocol):
+    """What an accuracy record is made of: the scores and timings of one cell's episodes
+    (:class:`benchmark.evaluate.EvalResult` has them)."""
+
+    episodes: int
+    accuracy: float
+    ci95: float
+    batch_ms_per_episode: float
+    latency_ms_per_episode: float | None
+    latency_with_features_ms_per_episode: float | None
+    latency_episodes: int
+
+
 def accuracy_record(
     *,
     protocol: str,
@@ -322,7 +333,7 @@ def accuracy_record(
     way: int,
     shot: int,
     query: int,
-    result: EvalResult,
+    result: CellScores,
     pretrain_s: float,
     feature_dim: int | None,
 ) -> AccuracyRecord:
@@ -457,9 +468,35 @@ def from_dict(d: Mapping[str, Any]) -> Mapping[str, Any]:
 def select(records: Iterable[Mapping[str, Any]], record: str, **match: Any) -> list[Any]:
     """The records of kind ``record`` whose fields equal every ``match`` value, in order.
 
-    ``select(records, "accuracy", protocol="cross-shape", fold=None, way=5)``; a field a
-    record lacks never matches (so ``fold=None`` does not match a record without ``fold``).
     Works on typed records and on the plain dicts of a results.json alike.
+
+    Parameters
+    ----------
+    records : iterable of mapping
+        Records (:func:`read_results`, or what a run returns).
+    record : str
+        The kind: one of :data:`RECORD_KINDS` (``"accuracy"``, ``"selection"``...).
+    **match
+        Field values the records must have, e.g. ``protocol="cross-shape", fold=None``.
+        A field a record lacks never matches (so ``fold=None`` does not match a record
+        without ``fold``).
+
+    Returns
+    -------
+    list
+        The matching records, in their order.
+
+    Examples
+    --------
+    >>> records = [
+    ...     {"record": "accuracy", "protocol": "cross-shape", "fold": None, "way": 5},
+    ...     {"record": "accuracy", "protocol": "cross-shape", "fold": 1, "way": 5},
+    ...     {"record": "selection", "protocol": "cross-shape", "fold": None},
+    ... ]
+    >>> select(records, "accuracy", protocol="cross-shape", fold=None, way=5)
+    [{'record': 'accuracy', 'protocol': 'cross-shape', 'fold': None, 'way': 5}]
+    >>> len(select(records, "selection", way=5))
+    0
     """
     check_choice("record", record, RECORD_KINDS)
     return [
@@ -516,9 +553,36 @@ def write_results(path: str | Path, records: Sequence[Mapping[str, Any]]) -> Pat
 
 
 def read_results(path: str | Path, *, typed: bool = False) -> list[Any]:
-    """Load and check a results.json written by :func:`write_results`: its plain JSON
-    objects, or with ``typed`` the record dataclasses (objects of unknown kinds stay
-    dicts)."""
+    """Load and check a results.json written by :func:`write_results`.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The results.json file.
+    typed : bool, default False
+        Return the record dataclasses (:data:`RECORD_TYPES`; objects of kinds this
+        version does not know stay dicts) instead of the plain JSON objects.
+
+    Returns
+    -------
+    list
+        The records, in file order.
+
+    Raises
+    ------
+    FileNotFoundError, ValueError
+        No such file; not a results.json list; a record of another schema version.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> record = selection_record(protocol="closed-set", fold=None, D=2, pvdf_share=0.5,
+    ...                           sg_share=0.5, selected=[0, 200])
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = write_results(pathlib.Path(tmp) / "results.json", [record])
+    ...     print(read_results(path, typed=True)[0].D, read_results(path)[0]["record"])
+    2 selection
+    """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"results file {path} does not exist")

@@ -46,6 +46,7 @@ from .protocols import PROTOCOL_NAMES, get
 from .report import class_grid, dataset_summary, write_report
 from .results import Record, write_results
 from .splits import NotApplicable, specimen_folds
+from .workers import ProcessPool
 
 __all__ = ["benchmark_all", "dataset_summary", "run", "run_plan", "run_protocols"]
 
@@ -165,7 +166,7 @@ def run_protocols(
             methods,
             features=features,
             progress=progress,
-            workers=workers,
+            executor=ProcessPool(workers),
             on_done=done,
             fit_cache=fits,
             options=options,

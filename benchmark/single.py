@@ -10,8 +10,10 @@ from tactile_synth.validation import check_int
 
 from . import figures
 from .budget import Budget
-from .engine import Features, check_methods, protocol_tasks
+from .cells import Features
+from .engine import protocol_tasks
 from .guards import check_episodes, check_perturbation_pair
+from .methods import check_methods
 from .outputs import OutputDir
 from .protocols import get
 from .protocols.closed_set import Reference

@@ -1,6 +1,7 @@
 """The engine's fits in worker processes: each (fit group, method) is one job, and the
 jobs of every protocol of a run share one queue, so a process that finishes early takes
-the next job, whatever protocol it belongs to.
+the next job, whatever protocol it belongs to. :class:`ProcessPool` is the executor a
+caller gives the engine (:func:`benchmark.engine.run_task_sets`) for this.
 
 Why processes: a fit and its episodes are mostly many small tensor operations from one
 Python thread. Two processes of one thread each keep both cores of a 2-core machine busy
@@ -41,18 +42,13 @@ import numpy as np
 from models.registry import MethodOptions
 from synth import Dataset
 from tactile_synth.threads import init_worker, worker_threads
+from tactile_synth.validation import check_int
 
 from .budget import EpisodeBudget
-from .engine import (
-    Cell,
-    Features,
-    FitGroup,
-    FitResult,
-    Pool,
-    Share,
-    Task,
-    run_fit,
-)
+from .cells import Features
+from .fit_groups import FitGroup, Share
+from .fits import FitResult, run_fit
+from .tasks import Cell, Pool, Task
 
 _ARRAYS = ("signals", "shape", "material", "label", "force_n", "speed_mm_s", "seed")
 
@@ -272,3 +268,52 @@ def run_fits(
             _terminate(executor)
             raise
         executor.shutdown(wait=True)
+
+
+class ProcessPool:
+    """Run the engine's fits in up to ``workers`` spawned processes of ``threads``
+    threads each (default: their share of the CPUs); an executor for
+    :func:`benchmark.engine.run_task_sets` (:class:`benchmark.engine.FitExecutor`).
+
+    Parameters
+    ----------
+    workers : int
+        The most processes the fits run in. No more processes start than there are fits
+        to run; with one (or one fit) the fits run in the calling process, in order.
+    threads : int or None, default None
+        Threads per worker process (None: :func:`tactile_synth.threads.worker_threads`).
+
+    Examples
+    --------
+    >>> ProcessPool(2).processes(5), ProcessPool(2).processes(1), ProcessPool(1).processes(9)
+    (2, 1, 1)
+    """
+
+    def __init__(self, workers: int, *, threads: int | None = None) -> None:
+        self.workers = check_int("workers", workers, minimum=1)
+        self.threads = None if threads is None else check_int("threads", threads, minimum=1)
+
+    def __repr__(self) -> str:
+        return f"ProcessPool({self.workers}, threads={self.threads})"
+
+    def processes(self, fits: int) -> int:
+        """Processes ``fits`` fits run in: no more than there are fits (1: this process)."""
+        return max(1, min(self.workers, fits))
+
+    def run(
+        self,
+        groups: Sequence[FitGroup],
+        jobs: Sequence[tuple[int, str]],
+        features: Features,
+        *,
+        options: MethodOptions,
+    ) -> Iterator[tuple[tuple[int, str], FitResult]]:
+        """:func:`run_fits` of ``jobs`` in :meth:`processes` processes."""
+        return run_fits(
+            groups,
+            jobs,
+            features,
+            workers=self.processes(len(jobs)),
+            threads=self.threads,
+            options=options,
+        )

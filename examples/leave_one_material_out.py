@@ -15,8 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmark.budget import EpisodeBudget
-from benchmark.engine import Cell, Pool, Protocol, Task, child_seed
+from benchmark import Cell, EpisodeBudget, Pool, Protocol, Task, child_seed
 from synth import Dataset
 
 

@@ -121,11 +121,51 @@ def episode_net(d_in: int, *, alpha: float, lam: float) -> EpisodeNet:
 
 
 class AFOMLPML(FewShotMethod):
-    """AFO-MLP-ML as the paper describes it. Learned: ``afop_`` (the feature optimisation:
-    z-scoring, NCA ranking, D-scan; nothing else is trained at fit time), ``D_``,
-    ``selected_``, ``schedule_`` (rate and steps of the per-episode training per
-    validated shot and way, with the validation curves); ``feature_dim_`` = 32 (the
-    projection's output)."""
+    """AFO-MLP-ML as the paper describes it: AFOP-ML's top-D features through a fresh
+    D -> 64 -> 32 MLP and the cosine head, trained on each episode's support set.
+
+    Parameters
+    ----------
+    seed : int, default 0
+        Seeds the feature optimisation, the networks and the validation episodes.
+    steps : int or None
+        Adam steps per episode (None: chosen on validation episodes of the training
+        split, per shot and way).
+    lr : float or None
+        Adam learning rate (None: chosen likewise, from :data:`LRS`).
+    lam : float, default 0.10
+        Weight of the posteriors' entropy in the head's loss (paper).
+    alpha : float or None
+        The head's temperature (None: the tuned value, :mod:`models.tuned`).
+    ncfs_lam_n, ncfs_max_iter : float, "cv", int or None
+        AFOP-ML's feature-optimisation settings (None: AFOP-ML's defaults).
+
+    Attributes
+    ----------
+    afop_ : models.afop.AFOPML
+        The feature optimisation (z-scoring, NCA ranking, D-scan); nothing else is
+        trained at fit time.
+    D_ : int
+        The chosen size D.
+    selected_ : numpy.ndarray
+        Indices of the top-D features.
+    schedule_ : models.nets.Schedule
+        Rate and steps of the per-episode training per validated shot and way, with the
+        validation curves.
+    feature_dim_ : int
+        32: the projection's output.
+
+    Examples
+    --------
+    >>> from tests.synthetic_data import make_dataset
+    >>> data = make_dataset(trials_per_class=3, shapes=("circle", "square", "moon"),
+    ...                     n_samples=1000, noise=0.1)
+    >>> from models.episodes import sample_episodes
+    >>> batch = sample_episodes(data.label, n_way=3, k_shot=1, n_query=2, episodes=4, seed=0)
+    >>> model = AFOMLPML(steps=20, lr=5e-3).fit(data.signals, data.label)
+    >>> model.predict_episodes(data.signals, batch.support, batch.query).shape
+    (4, 6)
+    """
 
     name = "AFO-MLP-ML"
     cost_hint = (7.0, 2.0)
@@ -185,9 +225,54 @@ class AFOMLPML(FewShotMethod):
 
 
 class AFOMLPMLMeta(FewShotMethod):
-    """AFO-MLP-ML+meta (beyond the paper). Learned: ``afop_`` (feature optimisation),
-    ``mlp_`` (meta-trained weights), ``D_``, ``selected_``, ``feature_dim_`` (= 32, the
-    projection's output)."""
+    """AFO-MLP-ML+meta (a variant beyond the paper): AFO-MLP-ML's MLP meta-trained on
+    prototypical episodes of the training classes, then fine-tuned per episode.
+
+    Parameters
+    ----------
+    seed : int, default 0
+        Seeds the feature optimisation, the initialisation and the meta-training episodes.
+    meta_iterations : int or None
+        Meta-training steps (None: the tuned value).
+    meta_batch : int, default 16
+        Tasks (5-way 5-shot) per meta-step.
+    meta_lr : float or None
+        The meta-training Adam rate (None: the tuned value).
+    adapt_steps : int, default 250
+        Adam steps of the per-episode fine-tuning (the head's paper value).
+    adapt_lr : float, default 1.5e-3
+        Its Adam rate (the head's paper value).
+    lam : float, default 0.10
+        Weight of the posteriors' entropy in the head's loss.
+    alpha : float or None
+        The head's temperature (None: the tuned value).
+    ncfs_lam_n, ncfs_max_iter : float, "cv", int or None
+        AFOP-ML's feature-optimisation settings (None: AFOP-ML's defaults).
+
+    Attributes
+    ----------
+    afop_ : models.afop.AFOPML
+        The feature optimisation.
+    mlp_ : list of torch.Tensor
+        The meta-trained MLP weights.
+    D_ : int
+        The chosen size D.
+    selected_ : numpy.ndarray
+        Indices of the top-D features.
+    feature_dim_ : int
+        32: the projection's output.
+
+    Examples
+    --------
+    >>> from tests.synthetic_data import make_dataset
+    >>> data = make_dataset(trials_per_class=3, shapes=("circle", "square", "moon"),
+    ...                     n_samples=1000, noise=0.1)
+    >>> from models.episodes import sample_episodes
+    >>> batch = sample_episodes(data.label, n_way=3, k_shot=1, n_query=2, episodes=4, seed=0)
+    >>> model = AFOMLPMLMeta(meta_iterations=5, adapt_steps=10).fit(data.signals, data.label)
+    >>> model.predict_episodes(data.signals, batch.support, batch.query).shape
+    (4, 6)
+    """
 
     name = "AFO-MLP-ML+meta"
     cost_hint = (8.0, 15.0)

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import FewShotMethod
+from .base import DScanCurve, FewShotMethod, FitDetails
 from .dscan import DEFAULT_CANDIDATES, dscan
 from .features import FEATURE_NAMES, pool_of
 from .ncfs import DEFAULT_SIGMA, NCFS, select_lambda
@@ -30,9 +30,62 @@ from .tuned import tuned
 
 
 class AFOPML(FewShotMethod):
-    """AFOP-ML. Learned: ``scaler_``, ``ncfs_`` (weights, ranking), ``ncfs_cv_`` (the
-    lambda cross-validation when ``ncfs_lam_n="cv"``), ``dscan_`` (curve), ``D_`` (chosen
-    size), ``selected_`` (indices of the top-D features)."""
+    """AFOP-ML: NCA-ranked top-D features and the adapted cosine prototypical head.
+
+    Parameters
+    ----------
+    seed : int, default 0
+        Seeds the D-scan's validation episodes and the head's adaptation.
+    steps : int, default 250
+        Adam steps of the head's adaptation per episode (paper).
+    lr : float, default 1.5e-3
+        The head's Adam learning rate (paper).
+    lam : float, default 0.10
+        Weight of the posteriors' entropy in the head's loss (paper).
+    alpha : float or None
+        The head's temperature (None: the tuned value, :mod:`models.tuned`).
+    candidates : tuple of int
+        Candidate sizes D of the D-scan (:data:`models.dscan.DEFAULT_CANDIDATES`).
+    dscan_episodes : int, default 200
+        5-way 5-shot validation episodes per candidate D.
+    ncfs_lam_n : float, "cv" or None
+        fscnca's lambda times the number of training trials; ``"cv"`` chooses lambda by
+        cross-validation on the training trials (None: the tuned value).
+    ncfs_max_iter : int or None
+        L-BFGS iterations of the NCA weights (None: the tuned value).
+    ncfs_sigma : float, default 1.0
+        fscnca's kernel width.
+
+    Attributes
+    ----------
+    scaler_ : models.scaling.FeatureScaler
+        z-scoring of the 386 features with training statistics.
+    ncfs_ : models.ncfs.NCFS
+        The NCA feature weights and their ranking (``ranking_``).
+    ncfs_cv_ : object
+        The lambda cross-validation (only with ``ncfs_lam_n="cv"``).
+    dscan_ : dict
+        The D-scan curve: ``D``, ``mean`` and ``ci95`` arrays.
+    D_ : int
+        The chosen size D.
+    selected_ : numpy.ndarray
+        Indices of the top-D features (into :data:`models.features.FEATURE_NAMES`).
+    selected_names_ : tuple of str
+        Their names.
+
+    Examples
+    --------
+    >>> from tests.synthetic_data import make_dataset
+    >>> data = make_dataset(trials_per_class=3, shapes=("circle", "square", "moon"),
+    ...                     n_samples=1000, noise=0.1)
+    >>> from models.episodes import sample_episodes
+    >>> batch = sample_episodes(data.label, n_way=3, k_shot=1, n_query=2, episodes=4, seed=0)
+    >>> model = AFOPML(seed=0, dscan_episodes=20, steps=20).fit(data.signals, data.label)
+    >>> model.D_ == len(model.selected_) == len(model.fit_details().selected)
+    True
+    >>> model.predict_episodes(data.signals, batch.support, batch.query).shape
+    (4, 6)
+    """
 
     name = "AFOP-ML"
     cost_hint = (5.0, 2.0)
@@ -101,6 +154,24 @@ class AFOPML(FewShotMethod):
         self.dscan_ = scan.as_dict()
         self.D_ = scan.best
         self.selected_ = self.ncfs_.ranking_[: self.D_].copy()
+
+    def fit_details(self) -> FitDetails:
+        """The top-D features (``selected_``) and the D-scan they were chosen by
+        (``dscan_``), for the benchmark's ``selection`` and ``dscan`` records."""
+        details = super().fit_details()
+        if getattr(self, "selected_", None) is None:
+            return details
+        scan = self.dscan_
+        return FitDetails(
+            selected=tuple(np.asarray(self.selected_).tolist()),
+            dscan=DScanCurve(
+                tuple(np.asarray(scan["D"]).tolist()),
+                tuple(np.asarray(scan["mean"]).tolist()),
+                tuple(np.asarray(scan["ci95"]).tolist()),
+            ),
+            meta_curve=details.meta_curve,
+            meta_gradient=details.meta_gradient,
+        )
 
     @property
     def selected_names_(self) -> tuple[str, ...]:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import inspect
 from abc import ABC, abstractmethod
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import ClassVar, Self
 
 import numpy as np
@@ -31,6 +32,60 @@ SETTING_KINDS: dict[str, Callable[[str, object], object]] = {
 
 class NotFittedError(RuntimeError):
     """``predict_episodes`` was called before ``fit``."""
+
+
+@dataclass(frozen=True)
+class DScanCurve:
+    """The validation curve a feature-space size D was chosen on.
+
+    Parameters
+    ----------
+    sizes : tuple of int
+        The candidate sizes D.
+    mean : tuple of float
+        Mean validation accuracy of each candidate.
+    ci95 : tuple of float
+        Its 95 % confidence half-width.
+    """
+
+    sizes: tuple[int, ...]
+    mean: tuple[float, ...]
+    ci95: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class FitDetails:
+    """What a fitted method exposes beyond its predictions (:meth:`FewShotMethod.fit_details`);
+    the benchmark writes each part as a record of the fit (``docs/results.md``).
+
+    Parameters
+    ----------
+    selected : tuple of int or None
+        Indices into :data:`models.features.FEATURE_NAMES` of the features the method
+        selected (AFOP-ML: its top-D features): a ``selection`` record with D = their
+        number and their PVDF/SG shares (:func:`models.features.sensor_shares`). The
+        record carries no method name: the report and the interpretability analysis read
+        it as AFOP-ML's, so a run should hold one method that reports a selection.
+    dscan : DScanCurve or None
+        The validation curve D was chosen on: a ``dscan`` record.
+    meta_curve : numpy.ndarray or None
+        ``(n, 2)`` rows of (outer step, validation accuracy) of a meta-learner's
+        meta-training: a ``meta_curve`` record.
+    meta_gradient : str or None
+        How the meta-gradient is computed (``"first-order"``), written beside the curve.
+
+    Examples
+    --------
+    >>> FitDetails().selected is None
+    True
+    >>> FitDetails(selected=(3, 7)).selected
+    (3, 7)
+    """
+
+    selected: tuple[int, ...] | None = None
+    dscan: DScanCurve | None = None
+    meta_curve: np.ndarray | None = None
+    meta_gradient: str | None = None
 
 
 def _check_index_array(arg: str, value: object, ndim: int, n_pool: int) -> np.ndarray:
@@ -72,12 +127,53 @@ def check_episodes(support: object, query: object, n_pool: int) -> tuple[np.ndar
 
 
 class FewShotMethod(ABC):
-    """Base class: subclasses set ``name`` and implement ``_fit`` and ``_predict``.
+    """The interface of every few-shot method: subclasses set ``name`` and implement
+    ``_fit`` and ``_predict`` (``docs/methods.md``).
 
-    Parameters are set only in ``__init__``; learned attributes end in ``_``.
-    ``features`` arguments are the raw (unscaled) 386-feature pool of
-    :func:`models.features.extract` for the same trials, passed when the caller has
-    already computed them; methods that need them compute them when ``None``.
+    Parameters are set only in ``__init__`` (keyword-only, each a setting a user may
+    change with ``--method-option``); learned attributes end in ``_``. ``features``
+    arguments are the raw (unscaled) 386-feature pool of :func:`models.features.extract`
+    for the same trials, passed when the caller has already computed them; methods that
+    need them compute them when ``None``.
+
+    Parameters
+    ----------
+    seed : int, default 0
+        Seeds everything random in the method: the same seed gives the same predictions.
+
+    Attributes
+    ----------
+    name : str
+        The method's name in results and on the command line (a class attribute).
+    cost_hint : tuple of float
+        Rough CPU seconds of one fit and of 1000 evaluated episodes (a class attribute:
+        only orders the queue of fits).
+    fitted_ : bool
+        Whether :meth:`fit` has run.
+
+    Examples
+    --------
+    A nearest-class-mean method on the channels' means:
+
+    >>> import numpy as np
+    >>> class NearestMean(FewShotMethod):
+    ...     name = "nearest-mean"
+    ...     def _fit(self, signals, labels, features):
+    ...         pass  # nothing to learn from the training classes
+    ...     def _predict(self, signals, support, query, features):
+    ...         x = signals.mean(axis=2)
+    ...         protos = x[support].mean(axis=2)  # (E, N, channels)
+    ...         d = ((x[query][:, :, None] - protos[:, None]) ** 2).sum(-1)
+    ...         return d.argmin(axis=2)
+    >>> from tests.synthetic_data import make_dataset
+    >>> data = make_dataset(trials_per_class=3, n_samples=200, noise=0.1)
+    >>> from models.episodes import sample_episodes
+    >>> batch = sample_episodes(data.label, n_way=5, k_shot=1, n_query=2, episodes=8, seed=0)
+    >>> model = NearestMean(seed=0).fit(data.signals, data.label)
+    >>> model.predict_episodes(data.signals, batch.support, batch.query).shape
+    (8, 10)
+    >>> model.fit_details()
+    FitDetails(selected=None, dscan=None, meta_curve=None, meta_gradient=None)
     """
 
     name: ClassVar[str]
@@ -154,6 +250,20 @@ class FewShotMethod(ABC):
                 f"{self.name} returned predictions of shape {pred.shape}, expected {q.shape}"
             )
         return pred
+
+    def fit_details(self) -> FitDetails:
+        """What the fitted method exposes beyond its predictions, for the benchmark's
+        records of each fit (:class:`FitDetails`); called after :meth:`fit`.
+
+        The default reports a meta-training curve when the method has one: the
+        ``meta_curve_`` attribute (``(n, 2)`` rows of outer step and validation
+        accuracy) and the ``meta_gradient`` attribute beside it; nothing else. A method
+        that selects features overrides it (AFOP-ML).
+        """
+        curve = getattr(self, "meta_curve_", None)
+        if curve is None:
+            return FitDetails()
+        return FitDetails(meta_curve=curve, meta_gradient=getattr(self, "meta_gradient", None))
 
     @abstractmethod
     def _fit(self, signals: np.ndarray, labels: np.ndarray, features: np.ndarray | None) -> None:

@@ -159,9 +159,41 @@ def _net(d_in: int) -> EpisodeNet:
 
 
 class BiLSTMBaseline(FewShotMethod):
-    """Learned: ``scaler_`` (channels), ``frame_scaler_`` (frame features), ``schedule_``
-    (rate and steps per validated shot and way, chosen on validation episodes unless
-    given); ``feature_dim_`` = 32 (both directions' final hidden states)."""
+    """BiLSTM: a bidirectional LSTM over frame features, trained from scratch on each
+    episode's support set.
+
+    Parameters
+    ----------
+    seed : int, default 0
+        Seeds the networks' initialisation and the validation episodes.
+    steps : int or None
+        Adam steps per episode (None: chosen on validation episodes of the training
+        split, per shot and way).
+    lr : float or None
+        Adam learning rate (None: chosen likewise, from :data:`LRS`).
+
+    Attributes
+    ----------
+    scaler_ : models.nets.ChannelScaler
+        Per-channel z-scoring with training statistics.
+    frame_scaler_ : object
+        Standardisation of the frame features with training statistics.
+    schedule_ : models.nets.Schedule
+        Rate and steps per validated shot and way, with the validation curves.
+    feature_dim_ : int
+        32: both directions' final hidden states.
+
+    Examples
+    --------
+    >>> from tests.synthetic_data import make_dataset
+    >>> data = make_dataset(trials_per_class=3, shapes=("circle", "square", "moon"),
+    ...                     n_samples=1000, noise=0.1)
+    >>> from models.episodes import sample_episodes
+    >>> batch = sample_episodes(data.label, n_way=3, k_shot=1, n_query=2, episodes=4, seed=0)
+    >>> model = BiLSTMBaseline(steps=10, lr=1e-2).fit(data.signals, data.label)
+    >>> model.predict_episodes(data.signals, batch.support, batch.query).shape
+    (4, 6)
+    """
 
     name = "BiLSTM"
     cost_hint = (30.0, 30.0)

@@ -85,9 +85,38 @@ def predict_scheduled(
 
 
 class CNNBaseline(FewShotMethod):
-    """Learned: ``scaler_``, ``schedule_`` (rate and steps per validated shot and way,
-    chosen on validation episodes of the training split unless given, with the curves);
-    ``feature_dim_`` = 16."""
+    """CNN: a small 1-D CNN trained from scratch on each episode's support set.
+
+    Parameters
+    ----------
+    seed : int, default 0
+        Seeds the networks' initialisation and the validation episodes.
+    steps : int or None
+        Adam steps per episode (None: chosen on validation episodes of the training
+        split, per shot and way).
+    lr : float or None
+        Adam learning rate (None: chosen likewise, from :data:`LRS`).
+
+    Attributes
+    ----------
+    scaler_ : models.nets.ChannelScaler
+        Per-channel z-scoring with training statistics.
+    schedule_ : models.nets.Schedule
+        Rate and steps per validated shot and way, with the validation curves.
+    feature_dim_ : int
+        16: the width of the embedding before the linear head.
+
+    Examples
+    --------
+    >>> from tests.synthetic_data import make_dataset
+    >>> data = make_dataset(trials_per_class=3, shapes=("circle", "square", "moon"),
+    ...                     n_samples=1000, noise=0.1)
+    >>> from models.episodes import sample_episodes
+    >>> batch = sample_episodes(data.label, n_way=3, k_shot=1, n_query=2, episodes=4, seed=0)
+    >>> model = CNNBaseline(steps=10, lr=1e-2).fit(data.signals, data.label)
+    >>> model.predict_episodes(data.signals, batch.support, batch.query).shape
+    (4, 6)
+    """
 
     name = "CNN"
     cost_hint = (60.0, 60.0)

@@ -302,10 +302,64 @@ ARCHS = {"small": WIDTHS[-1], "resnet18": RESNET18_WIDTHS[-1]}
 
 
 class CWTResNetML(FewShotMethod):
-    """Learned: ``scaler_``, ``net_`` (the ResNet trained on all training classes),
-    ``embed_scaler_``, ``epochs_`` (the epoch count chosen on held-out training classes),
-    ``epoch_curve_`` (``(n, 2)``: epoch, validation accuracy); ``feature_dim_`` = 64
-    (``arch="small"``) or 512 (ResNet-18)."""
+    """CWT-ResNet-ML: wavelet scalograms, a ResNet embedding trained on the training
+    classes, and AFOP-ML's adapted cosine prototypical head.
+
+    Parameters
+    ----------
+    seed : int, default 0
+        Seeds the network's initialisation, batches and validation episodes.
+    max_epochs : int, default 30
+        The most training epochs early stopping may choose.
+    patience : int, default 3
+        Epochs without a validation gain before early stopping ends training.
+    batch : int, default 64
+        Training batch size.
+    lr : float, default 1e-3
+        The network's Adam learning rate.
+    steps : int, default 250
+        Adam steps of the head's adaptation per episode (AFOP-ML's paper value).
+    head_lr : float, default 1.5e-3
+        The head's Adam learning rate (AFOP-ML's paper value).
+    lam : float, default 0.10
+        Weight of the posteriors' entropy in the head's loss.
+    alpha : float or None
+        The head's temperature (None: the tuned value, :mod:`models.tuned`).
+    val_episodes : int, default 100
+        Validation episodes per shot of the early stopping.
+    weights : str or None
+        Path of a torchvision ResNet-18 state dict to start from (then ``arch`` is
+        ``"resnet18"``).
+    arch : {"small", "resnet18"} or None
+        The network (None: ``"resnet18"`` with ``weights``, else ``"small"``).
+
+    Attributes
+    ----------
+    scaler_ : models.nets.ChannelScaler
+        Per-channel z-scoring with training statistics.
+    net_ : torch.nn.Module
+        The ResNet trained on all training classes.
+    embed_scaler_ : models.scaling.FeatureScaler
+        z-scoring of the embeddings with training statistics.
+    epochs_ : int
+        The epoch count chosen on held-out training classes.
+    epoch_curve_ : numpy.ndarray
+        ``(n, 2)``: epoch, validation accuracy.
+    feature_dim_ : int
+        64 (``arch="small"``) or 512 (ResNet-18).
+
+    Examples
+    --------
+    >>> from tests.synthetic_data import make_dataset
+    >>> data = make_dataset(trials_per_class=3, shapes=("circle", "square", "moon"),
+    ...                     n_samples=1000, noise=0.1)
+    >>> from models.episodes import sample_episodes
+    >>> batch = sample_episodes(data.label, n_way=3, k_shot=1, n_query=2, episodes=4, seed=0)
+    >>> model = CWTResNetML(max_epochs=1, steps=10, val_episodes=4).fit(data.signals,
+    ...                                                                  data.label)
+    >>> model.predict_episodes(data.signals, batch.support, batch.query).shape
+    (4, 6)
+    """
 
     name = "CWT-ResNet-ML"
     cost_hint = (25.0, 11.0)

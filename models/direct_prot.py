@@ -17,7 +17,39 @@ from .tuned import tuned
 
 
 class DirectProtML(FewShotMethod):
-    """Learned: ``scaler_`` (training-set z-scoring); ``feature_dim_`` = 386."""
+    """Direct-Prot-ML: all 386 z-scored features into the adapted cosine prototypical head.
+
+    Parameters
+    ----------
+    seed : int, default 0
+        Seeds the head's adaptation.
+    steps : int, default 250
+        Adam steps of the head's adaptation per episode (paper).
+    lr : float, default 1.5e-3
+        The head's Adam learning rate (paper).
+    lam : float, default 0.10
+        Weight of the posteriors' entropy in the head's loss (paper).
+    alpha : float or None
+        The head's temperature (None: the tuned value, :mod:`models.tuned`).
+
+    Attributes
+    ----------
+    scaler_ : models.scaling.FeatureScaler
+        z-scoring of the 386 features with training statistics.
+    feature_dim_ : int
+        386: the head works in the whole feature pool.
+
+    Examples
+    --------
+    >>> from tests.synthetic_data import make_dataset
+    >>> data = make_dataset(trials_per_class=3, shapes=("circle", "square", "moon"),
+    ...                     n_samples=1000, noise=0.1)
+    >>> from models.episodes import sample_episodes
+    >>> batch = sample_episodes(data.label, n_way=3, k_shot=1, n_query=2, episodes=4, seed=0)
+    >>> model = DirectProtML(steps=20).fit(data.signals, data.label)
+    >>> model.predict_episodes(data.signals, batch.support, batch.query).shape
+    (4, 6)
+    """
 
     name = "Direct-Prot-ML"
     cost_hint = (0.5, 3.0)

@@ -16,7 +16,7 @@ from it).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import pywt
@@ -388,6 +388,27 @@ def markdown_table() -> str:
 def sensor_of(name: str) -> str:
     """``"PVDF"`` or ``"SG"``: the sensor type a feature name comes from."""
     return "PVDF" if name.split(".")[0].startswith("pvdf") else "SG"
+
+
+def sensor_shares(
+    selected: Sequence[int], feature_names: Sequence[str] = FEATURE_NAMES
+) -> tuple[float, float]:
+    """(PVDF share, SG share) among the ``selected`` feature indices.
+
+    Feature names are ``<channel>.<domain>.<statistic>``; channels ``pvdf*`` and ``sg*``.
+
+    Examples
+    --------
+    >>> sensor_shares([0, FEATURE_NAMES.index("sg1.time.rms")])
+    (0.5, 0.5)
+    """
+    sel = [int(i) for i in selected]
+    if not sel:
+        raise ValueError("selected must hold at least one feature index")
+    channels = [feature_names[i].split(".", 1)[0] for i in sel]
+    pvdf = sum(c.startswith("pvdf") for c in channels)
+    sg = sum(c.startswith("sg") for c in channels)
+    return pvdf / len(sel), sg / len(sel)
 
 
 if __name__ == "__main__":

@@ -140,12 +140,71 @@ def _adapt(
 
 
 class MAML(FewShotMethod):
-    """Learned: ``scaler_`` (per-channel z-scoring), ``body_`` (meta-learned weights),
-    ``inner_lr_`` and ``test_steps_`` (chosen on validation episodes; ``lr_probe_`` and
-    ``test_step_scores_`` hold the scores), ``meta_curve_`` (``(n_evals, 2)``: outer
-    step, validation accuracy), ``best_iteration_`` (the outer step of the kept body),
-    ``iterations_`` (outer steps run), ``plateaued_`` (False if ``max_iterations``
-    stopped training first), ``feature_dim_`` (32)."""
+    """MAML: a 1-D CNN meta-trained with first-order MAML, adapted per episode by SGD
+    steps on its support set.
+
+    Parameters
+    ----------
+    seed : int, default 0
+        Seeds the initialisation, the meta-training and validation episodes.
+    max_iterations : int, default 3000
+        The most outer steps (bounds a fit's cost).
+    meta_batch : int, default 4
+        Tasks (5-way 5-shot) per outer step.
+    inner_steps : int, default 5
+        SGD steps on each task's support set during meta-training.
+    inner_lr : float or None
+        The inner SGD rate (None: chosen on validation episodes from :data:`INNER_LRS`).
+    outer_lr : float, default 1e-3
+        The outer Adam rate.
+    test_steps : int or None
+        SGD steps on a test episode's support set (None: chosen on validation episodes
+        from :data:`TEST_STEPS`).
+    eval_every : int, default 100
+        Outer steps between validations.
+    patience : int, default 4
+        Validations without a gain of ``min_delta`` before training stops.
+    min_delta : float, default 0.005
+        The smallest validation gain that counts.
+    val_episodes : int, default 100
+        Validation episodes per shot (1 and 5) on the held-out training classes.
+    lr_probe : int, default 200
+        Outer steps each candidate inner rate is run for before the best continues.
+
+    Attributes
+    ----------
+    scaler_ : models.nets.ChannelScaler
+        Per-channel z-scoring with training statistics.
+    body_ : list of torch.Tensor
+        The meta-learned weights (the head starts at zero per episode).
+    inner_lr_, test_steps_ : float, int
+        The inner rate and the test-time steps used (given or chosen).
+    lr_probe_, test_step_scores_ : dict
+        The validation scores they were chosen by.
+    meta_curve_ : numpy.ndarray
+        ``(n_evals, 2)``: outer step, validation accuracy (the benchmark's ``meta_curve``
+        record, :meth:`fit_details`).
+    best_iteration_, iterations_ : int
+        The outer step of the kept body; the outer steps run.
+    plateaued_ : bool
+        False if ``max_iterations`` stopped training before the validation plateaued.
+    feature_dim_ : int
+        32: the width of the embedding before the head.
+
+    Examples
+    --------
+    >>> from tests.synthetic_data import make_dataset
+    >>> data = make_dataset(trials_per_class=3, shapes=("circle", "square", "moon"),
+    ...                     n_samples=1000, noise=0.1)
+    >>> from models.episodes import sample_episodes
+    >>> batch = sample_episodes(data.label, n_way=3, k_shot=1, n_query=2, episodes=4, seed=0)
+    >>> model = MAML(max_iterations=10, eval_every=5, val_episodes=4, inner_lr=0.1,
+    ...              test_steps=3).fit(data.signals, data.label)
+    >>> model.fit_details().meta_gradient, model.meta_curve_.shape[1]
+    ('first-order', 2)
+    >>> model.predict_episodes(data.signals, batch.support, batch.query).shape
+    (4, 6)
+    """
 
     name = "MAML"
     cost_hint = (60.0, 27.0)

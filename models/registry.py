@@ -18,18 +18,11 @@ importing ``models`` stays cheap (torch is only loaded by the methods that need 
 
 from __future__ import annotations
 
-import importlib
-import importlib.metadata
-import importlib.util
 import inspect
 import json
-import os
-import sys
-import zlib
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 
-from tactile_synth.validation import check_choice
+from tactile_synth import plugins
 
 from .base import FewShotMethod
 
@@ -64,6 +57,11 @@ VARIANT_NOTES: dict[str, str] = {name: note for name, (_, note) in _VARIANTS.ite
 DEFAULT_METHODS: tuple[str, ...] = (*METHOD_NAMES, *VARIANT_NAMES)
 #: Entry-point group through which installed distributions contribute methods.
 ENTRY_POINT_GROUP = "tactile_synth.methods"
+#: Every built-in name (the paper's, then the variants) -> "module:Class".
+_BUILTINS: dict[str, str] = {
+    **_METHODS,
+    **{name: spec for name, (spec, _) in _VARIANTS.items()},
+}
 
 
 class PluginError(Exception):
@@ -72,19 +70,10 @@ class PluginError(Exception):
     the cause. A failure of the plug-in's code, not of tactile-synth's."""
 
 
-def _builtin_spec(name: str) -> str | None:
-    """``"module:Class"`` of a built-in method or variant, None for any other name."""
-    if name in _METHODS:
-        return _METHODS[name]
-    if name in _VARIANTS:
-        return _VARIANTS[name][0]
-    return None
-
-
 def is_builtin(name: str) -> bool:
     """Whether ``name`` is one of tactile-synth's own methods (:data:`METHOD_NAMES` or
     :data:`VARIANT_NAMES`)."""
-    return _builtin_spec(name) is not None
+    return name in _BUILTINS
 
 
 def is_paper_method(name: str) -> bool:
@@ -115,8 +104,7 @@ def paper_first(names: Sequence[str]) -> tuple[list[str], list[str]]:
 def plugin_methods() -> dict[str, str]:
     """Entry-point name -> ``"module:Class"`` of every installed plug-in method (names of
     built-in methods are left out: the built-in wins)."""
-    eps = importlib.metadata.entry_points(group=ENTRY_POINT_GROUP)
-    return {ep.name: ep.value for ep in eps if not is_builtin(ep.name)}
+    return plugins.entry_points(ENTRY_POINT_GROUP, _BUILTINS)
 
 
 def available_methods() -> tuple[str, ...]:
@@ -125,95 +113,28 @@ def available_methods() -> tuple[str, ...]:
     return (*DEFAULT_METHODS, *sorted(plugin_methods()))
 
 
-def _import_module(spec: str, module: str, arg: str):
-    """The module of a ``module:Class`` spec: a ``.py`` file path, or a module importable
-    from ``sys.path`` or else from the current directory (as ``python -m`` would find it)."""
-    if module.endswith(".py"):
-        return _import_file(spec, Path(module), arg)
-    mod = _try_import(spec, module, arg)
-    if mod is None and os.getcwd() not in sys.path:
-        sys.path.append(os.getcwd())  # searched last: installed modules win
-        mod = _try_import(spec, module, arg)
-    if mod is None:
-        raise ValueError(f"{arg}: {spec!r}: no module named {module!r}")
-    return mod
-
-
-def _try_import(spec: str, module: str, arg: str):
-    """The imported module, or None if it does not exist (a failure inside it raises)."""
-    try:
-        return importlib.import_module(module)
-    except ModuleNotFoundError as exc:
-        if exc.name is not None and (module == exc.name or module.startswith(exc.name + ".")):
-            return None
-        raise ValueError(f"{arg}: {spec!r}: importing {module} failed: {exc}") from exc
-    except ImportError as exc:
-        raise ValueError(f"{arg}: {spec!r}: importing {module} failed: {exc}") from exc
-
-
-def _import_file(spec: str, path: Path, arg: str):
-    if not path.is_file():
-        raise ValueError(f"{arg}: {spec!r}: file {path} does not exist")
-    resolved = str(path.resolve())
-    name = f"_tactile_synth_method_{path.stem}_{zlib.crc32(resolved.encode()):08x}"
-    if name in sys.modules:
-        return sys.modules[name]
-    loader_spec = importlib.util.spec_from_file_location(name, resolved)
-    if loader_spec is None or loader_spec.loader is None:
-        raise ValueError(f"{arg}: {spec!r}: cannot load {path} as a Python module")
-    mod = importlib.util.module_from_spec(loader_spec)
-    sys.modules[name] = mod  # before executing: dataclasses and typing look it up
-    try:
-        loader_spec.loader.exec_module(mod)
-    except ImportError as exc:
-        del sys.modules[name]
-        raise ValueError(f"{arg}: {spec!r}: importing {path} failed: {exc}") from exc
-    except BaseException:
-        del sys.modules[name]
-        raise
-    return mod
-
-
-def _load(spec: str, arg: str) -> type[FewShotMethod]:
-    """The class behind ``"module:Class"``, checked to be a usable FewShotMethod."""
-    module, sep, attr = spec.rpartition(":")
-    if not sep or not module or not attr or not attr.replace(".", "_").isidentifier():
-        raise ValueError(
-            f"{arg}: {spec!r} is not module:Class (e.g. examples.nearest_mean:NearestClassMean)"
-        )
-    obj: object = _import_module(spec, module, arg)
-    for part in attr.split("."):
-        if not hasattr(obj, part):
-            raise ValueError(f"{arg}: {spec!r}: {module} has no attribute {attr!r}")
-        obj = getattr(obj, part)
-    if not (inspect.isclass(obj) and issubclass(obj, FewShotMethod)):
-        raise ValueError(
-            f"{arg}: {spec!r} is not a FewShotMethod subclass (see docs/methods.md); got {obj!r}"
-        )
-    if inspect.isabstract(obj):
-        missing = ", ".join(sorted(obj.__abstractmethods__))
-        raise ValueError(f"{arg}: {spec!r} does not implement {missing}")
-    if not isinstance(getattr(obj, "name", None), str):
-        raise ValueError(f"{arg}: {spec!r} must set the class attribute name (a string)")
-    return obj
-
-
 def method_class(name: str, *, arg: str = "method") -> type[FewShotMethod]:
-    """The class of method ``name`` (a built-in name, a plug-in name or ``module:Class``);
-    ``ValueError`` naming ``arg`` when it cannot be found or is no FewShotMethod."""
-    if not isinstance(name, str) or not name:
-        raise ValueError(f"{arg} must be a method name or module:Class; got {name!r}")
-    spec = _builtin_spec(name)
-    if spec is not None:
-        module, cls = spec.split(":")
-        return getattr(importlib.import_module(module), cls)
-    plugins = plugin_methods()
-    if name in plugins:
-        return _load(plugins[name], f"{arg} {name!r} (entry point {plugins[name]!r})")
-    if ":" in name:
-        return _load(name, arg)
-    check_choice(arg, name, (*DEFAULT_METHODS, *sorted(plugins)))  # raises, with a close match
-    raise AssertionError("unreachable")
+    """The class of method ``name`` (a built-in name, a plug-in name or ``module:Class``,
+    see :func:`tactile_synth.plugins.resolve`); ``ValueError`` naming ``arg`` when it
+    cannot be found or is no complete FewShotMethod.
+
+    Examples
+    --------
+    >>> method_class("AFOP-ML").__name__
+    'AFOPML'
+    >>> method_class("examples.nearest_mean:NearestClassMean").name
+    'nearest-class-mean'
+    """
+    return plugins.resolve(
+        name,
+        builtins=_BUILTINS,
+        group=ENTRY_POINT_GROUP,
+        base=FewShotMethod,
+        kind="method",
+        doc="docs/methods.md",
+        example="examples.nearest_mean:NearestClassMean",
+        arg=arg,
+    )
 
 
 def check_methods(methods: Sequence[str], *, arg: str = "methods") -> tuple[str, ...]:

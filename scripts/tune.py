@@ -63,9 +63,9 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from benchmark.engine import child_seed  # noqa: E402
 from benchmark.evaluate import ci95  # noqa: E402
 from benchmark.protocols.closed_set import split_halves  # noqa: E402
+from benchmark.tasks import child_seed  # noqa: E402
 from models.afo_mlp import AFOMLPML, AFOMLPMLMeta  # noqa: E402
 from models.afop import AFOPML  # noqa: E402
 from models.cwt_resnet import CWTResNetML  # noqa: E402

@@ -125,7 +125,7 @@ def test_refuses_use_before_fit_and_malformed_episodes(separable):
 
 
 def test_feature_dim_is_the_embedding_width(separable):
-    from benchmark.engine import feature_dim
+    from benchmark.methods import feature_dim
     from models.afo_mlp import AFOMLPML, AFOMLPMLMeta
 
     data, feats = separable

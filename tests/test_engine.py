@@ -12,7 +12,7 @@ from typing import ClassVar
 import numpy as np
 import pytest
 
-from benchmark import engine, protocols
+from benchmark import engine, fits, protocols
 from benchmark.results import MetaCurveRecord, read_results, select
 from models.base import FewShotMethod
 from synth import CLASS_NAMES, MATERIAL_NAMES
@@ -61,7 +61,7 @@ def test_example_protocol_runs_through_the_engine(data, monkeypatch):
     from examples.leave_one_material_out import LeaveOneMaterialOut
 
     Spy.fits = []
-    monkeypatch.setattr(engine, "make_method", lambda name, seed=0: Spy(seed=seed))
+    monkeypatch.setattr(fits, "make_method", lambda name, seed=0: Spy(seed=seed))
     records = protocols.run(LeaveOneMaterialOut(), data, methods=["Direct-Prot-ML"], episodes=8)
     # One fit per left-out material, never on its classes.
     assert len(Spy.fits) == 3
@@ -82,7 +82,7 @@ def test_example_protocol_runs_through_the_engine(data, monkeypatch):
 
 def test_tasks_with_one_fit_key_share_one_fit(data, monkeypatch):
     Spy.fits = []
-    monkeypatch.setattr(engine, "make_method", lambda name, seed=0: Spy(seed=seed))
+    monkeypatch.setattr(fits, "make_method", lambda name, seed=0: Spy(seed=seed))
     idx = np.arange(len(data))
     tasks = [
         engine.Task(

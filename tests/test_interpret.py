@@ -10,6 +10,7 @@ import pytest
 
 import benchmark.run as run_mod
 from benchmark import engine
+from benchmark import fits as fits_module
 from benchmark.budget import Budget
 from benchmark.engine import Features
 from benchmark.interpret import analyse, dgi_random, indicators, standardise, tsne_embedding
@@ -56,7 +57,7 @@ def test_one_fit_of_the_closed_set_half_feeds_selection_dscan_tsne_and_reference
     data, pert = datasets
     train, test = split_halves(data.label, seed=SEED)
     fits: list = []
-    make = engine.make_method
+    make = fits_module.make_method
 
     def logging_make(name, seed=0, **options):
         method = make(name, seed=seed, **options)
@@ -69,7 +70,7 @@ def test_one_fit_of_the_closed_set_half_feeds_selection_dscan_tsne_and_reference
         method.fit = logged
         return method
 
-    monkeypatch.setattr(engine, "make_method", logging_make)
+    monkeypatch.setattr(fits_module, "make_method", logging_make)
     records = benchmark_all(
         data,
         pert,

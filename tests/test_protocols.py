@@ -8,7 +8,7 @@ from typing import ClassVar
 import numpy as np
 import pytest
 
-from benchmark import engine, protocols
+from benchmark import engine, fits, protocols
 from benchmark.protocols import closed_set
 from benchmark.results import TIMING_FIELDS, select
 from benchmark.splits import CROSS_SHAPE_FOLDS, NotApplicable, condition_name, split_halves
@@ -76,7 +76,7 @@ def _row_keys(signals: np.ndarray) -> set[bytes]:
 @pytest.fixture
 def spy(monkeypatch):
     Spy.log = []
-    monkeypatch.setattr(engine, "make_method", lambda name, seed=0: Spy(seed=seed))
+    monkeypatch.setattr(fits, "make_method", lambda name, seed=0: Spy(seed=seed))
     return Spy
 
 

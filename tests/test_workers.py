@@ -13,10 +13,11 @@ import time
 
 import pytest
 
-from benchmark import engine
+from benchmark import engine, fits
 from benchmark.protocols.closed_set import ClosedSet, Reference
 from benchmark.protocols.perturbation import Perturbation
 from benchmark.results import TIMING_FIELDS, to_json
+from benchmark.workers import ProcessPool
 from models.base import FewShotMethod
 from models.registry import PluginError
 from tactile_synth import threads
@@ -89,7 +90,7 @@ def test_closed_set_and_perturbation_share_one_fit(datasets, monkeypatch):
     assert len(groups) == 1 and order == [[0], [0]]
     assert [len(s.tasks) for s in groups[0].shares] == [1, len(sets[1])]
     Counting.fits = 0
-    monkeypatch.setattr(engine, "make_method", lambda name, seed=0: Counting(seed=seed))
+    monkeypatch.setattr(fits, "make_method", lambda name, seed=0: Counting(seed=seed))
     done = engine.run_task_sets(sets, ["AFOP-ML"]).sets
     assert Counting.fits == 1
     assert {s.record.protocol for s in done[0].scored} == {"closed-set"}
@@ -109,7 +110,7 @@ def test_the_reference_curve_is_evaluated_on_the_closed_set_fit(datasets, monkey
     assert groups[0].methods == (counting, "AFOP-ML")
     assert [s.methods for s in groups[0].shares] == [(counting, "AFOP-ML")] * 2 + [("AFOP-ML",)]
     Counting.fits = 0
-    monkeypatch.setattr(engine, "make_method", lambda name, seed=0: Counting(seed=seed))
+    monkeypatch.setattr(fits, "make_method", lambda name, seed=0: Counting(seed=seed))
     finished: list[int] = []
     done = engine.run_task_sets(
         sets, [counting, "AFOP-ML"], on_done=lambda i, _: finished.append(i)
@@ -138,9 +139,12 @@ def test_worker_processes_give_the_records_of_one_process(datasets):
     finished: list[int] = []
     threads.configure(1)  # the same threads per fit in this process as in each worker
     try:
-        here = engine.run_task_sets(sets, methods, workers=1)
+        here = engine.run_task_sets(sets, methods, executor=ProcessPool(1))
         there = engine.run_task_sets(
-            sets, methods, workers=2, threads=1, on_done=lambda i, _: finished.append(i)
+            sets,
+            methods,
+            executor=ProcessPool(2, threads=1),
+            on_done=lambda i, _: finished.append(i),
         )
     finally:
         threads.configure()
@@ -153,7 +157,9 @@ def test_worker_processes_give_the_records_of_one_process(datasets):
 def test_a_failing_fit_stops_the_run_with_its_error(datasets):
     sets = _sets(datasets)
     with pytest.raises(PluginError, match="failed in fit: ValueError: this fit fails on purpose"):
-        engine.run_task_sets(sets, [SPEC.format("Counting"), SPEC.format("Failing")], workers=2)
+        engine.run_task_sets(
+            sets, [SPEC.format("Counting"), SPEC.format("Failing")], executor=ProcessPool(2)
+        )
     deadline = time.monotonic() + 10
     while multiprocessing.active_children() and time.monotonic() < deadline:
         time.sleep(0.1)
@@ -172,7 +178,9 @@ def test_an_interrupt_stops_the_workers_at_once(datasets):
     try:
         with pytest.raises(KeyboardInterrupt):
             engine.run_task_sets(
-                sets, [SPEC.format("Sleeping"), "AFOP-ML", SPEC.format("Sleeping")], workers=2
+                sets,
+                [SPEC.format("Sleeping"), "AFOP-ML", SPEC.format("Sleeping")],
+                executor=ProcessPool(2),
             )
     finally:
         timer.cancel()
@@ -181,9 +189,17 @@ def test_an_interrupt_stops_the_workers_at_once(datasets):
     assert multiprocessing.active_children() == []
 
 
-def test_workers_must_be_a_positive_integer(datasets):
+def test_workers_must_be_a_positive_integer():
     with pytest.raises(ValueError, match="workers must be >= 1"):
-        engine.run_task_sets(_sets(datasets), ["AFOP-ML"], workers=0)
+        ProcessPool(0)
+    with pytest.raises(ValueError, match="threads must be >= 1"):
+        ProcessPool(2, threads=0)
+
+
+def test_a_pool_runs_no_more_processes_than_fits_and_one_fit_here():
+    pool = ProcessPool(3)
+    assert [pool.processes(n) for n in (1, 2, 3, 7)] == [1, 2, 3, 3]
+    assert ProcessPool(1).processes(10) == 1
 
 
 def test_a_killed_runs_temporary_datasets_are_removed_by_the_next(tmp_path):

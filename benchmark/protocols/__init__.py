@@ -1,7 +1,7 @@
 """Evaluation protocols by name: the paper's four, installed plug-ins and ``module:Class``.
 
-A protocol is a :class:`benchmark.engine.Protocol` subclass: a ``name`` and a ``tasks``
-method that turns the datasets into :class:`benchmark.engine.Task` objects; the engine
+A protocol is a :class:`benchmark.tasks.Protocol` subclass: a ``name`` and a ``tasks``
+method that turns the datasets into :class:`benchmark.tasks.Task` objects; the engine
 does the rest (``docs/protocols.md``). A protocol is named in one of three ways:
 
 - a built-in name, :data:`PROTOCOL_NAMES`;
@@ -22,14 +22,18 @@ from synth import Dataset
 from tactile_synth import plugins
 
 from ..budget import EpisodeBudget
-from ..engine import Features, Protocol, run_protocol
+from ..cells import Features
+from ..engine import run_protocol
+from ..labels import CLOSED_SET, CROSS_MATERIAL, CROSS_SHAPE, PERTURBATION
 from ..results import Record
+from ..tasks import Protocol
+from ..workers import ProcessPool
 
 _PROTOCOLS: dict[str, str] = {
-    "closed-set": "benchmark.protocols.closed_set:ClosedSet",
-    "cross-shape": "benchmark.protocols.cross_shape:CrossShape",
-    "cross-material": "benchmark.protocols.cross_material:CrossMaterial",
-    "perturbation": "benchmark.protocols.perturbation:Perturbation",
+    CLOSED_SET: "benchmark.protocols.closed_set:ClosedSet",
+    CROSS_SHAPE: "benchmark.protocols.cross_shape:CrossShape",
+    CROSS_MATERIAL: "benchmark.protocols.cross_material:CrossMaterial",
+    PERTURBATION: "benchmark.protocols.perturbation:Perturbation",
 }
 
 #: The paper's protocols, in the order ``benchmark all`` runs them.
@@ -81,10 +85,50 @@ def run(
     progress: bool = False,
     features: np.ndarray | None = None,
     perturbed_features: np.ndarray | None = None,
+    workers: int = 1,
 ) -> list[Record]:
-    """The records of one protocol (a name or an instance) on ``data`` (and
-    ``perturbed``); ``features`` / ``perturbed_features``: optional precomputed
-    386-feature pools of each. :func:`benchmark.engine.run_protocol` does the work."""
+    """The records of one protocol on ``data`` (and ``perturbed``).
+
+    :func:`benchmark.engine.run_protocol` does the work.
+
+    Parameters
+    ----------
+    protocol : str or benchmark.tasks.Protocol
+        A built-in or plug-in protocol name, ``module:Class``, or an instance.
+    data : synth.Dataset
+        The nominal dataset.
+    perturbed : synth.Dataset or None
+        The perturbation dataset (the perturbation protocol needs it).
+    methods : sequence of str, default ("AFOP-ML",)
+        Method names, plug-in names or ``module:Class`` specs.
+    episodes : int or benchmark.budget.EpisodeBudget, default 500
+        Episodes per cell (per method).
+    seed : int, default 0
+        The run's seed: the same seed gives the same records.
+    progress : bool, default False
+        Show a progress bar on a terminal.
+    features, perturbed_features : numpy.ndarray or None
+        Precomputed 386-feature pools of ``data`` and ``perturbed``
+        (:func:`models.features.extract`).
+    workers : int, default 1
+        Processes the fits run in (:class:`benchmark.workers.ProcessPool`; 1: this one).
+
+    Returns
+    -------
+    list of records
+        Accuracy records per cell, their summaries and the fits' records
+        (:mod:`benchmark.results`).
+
+    Examples
+    --------
+    >>> from benchmark.results import select
+    >>> from tests.synthetic_data import make_dataset
+    >>> data = make_dataset(trials_per_class=6, n_samples=200, noise=0.2)
+    >>> records = run("closed-set", data, methods=["Direct-Prot-ML"], episodes=10)
+    >>> row = select(records, "accuracy", way=5, shot=1)[0]
+    >>> row["method"], row["episodes"], 0.0 <= row["accuracy"] <= 1.0
+    ('Direct-Prot-ML', 10, True)
+    """
     given = ((data, features), (perturbed, perturbed_features))
     known = [(d, f) for d, f in given if f is not None]
     return run_protocol(
@@ -96,4 +140,5 @@ def run(
         seed=seed,
         progress=progress,
         features=Features(known),
+        executor=ProcessPool(workers),
     )

@@ -20,14 +20,15 @@ import numpy as np
 from synth import Dataset
 
 from ..budget import EpisodeBudget
-from ..engine import Cell, Pool, Protocol, Task, child_seed, n_query_for
+from ..labels import CLOSED_SET, REFERENCE
 from ..paper_reference import TABLE_ONE_COLUMNS
 from ..splits import split_halves
+from ..tasks import Cell, Pool, Protocol, Task, child_seed, n_query_for
 from .curves import curve_grid
 
 __all__ = ["TABLE_ONE_COLUMNS", "ClosedSet", "Reference", "columns_for", "split_halves"]
 
-PROTOCOL = "closed-set"
+PROTOCOL = CLOSED_SET
 #: Episodes of the 5-way-5-shot column also adapted one at a time.
 LATENCY_EPISODES = 10
 
@@ -108,7 +109,7 @@ class Reference(Protocol):
             Task(
                 protocol=PROTOCOL,
                 fold=None,
-                condition="reference",
+                condition=REFERENCE,
                 fit=Pool(data, train),
                 test=Pool(data, test),
                 grid=curve_grid(seed, PROTOCOL, 0),

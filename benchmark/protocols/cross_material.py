@@ -11,13 +11,14 @@ from __future__ import annotations
 from synth import Dataset
 
 from ..budget import EpisodeBudget
-from ..engine import Protocol, Task
+from ..labels import CROSS_MATERIAL
 from ..splits import cross_material_splits
+from ..tasks import Protocol, Task
 from .curves import check_splits, split_tasks
 
 
 class CrossMaterial(Protocol):
-    name = "cross-material"
+    name = CROSS_MATERIAL
     uses_reference = True
 
     def tasks(

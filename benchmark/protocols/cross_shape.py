@@ -12,13 +12,14 @@ from __future__ import annotations
 from synth import Dataset
 
 from ..budget import EpisodeBudget
-from ..engine import Protocol, Task
+from ..labels import CROSS_SHAPE
 from ..splits import cross_shape_splits
+from ..tasks import Protocol, Task
 from .curves import check_splits, split_tasks
 
 
 class CrossShape(Protocol):
-    name = "cross-shape"
+    name = CROSS_SHAPE
     uses_reference = True
 
     def tasks(

@@ -14,8 +14,8 @@ import numpy as np
 from synth import Dataset
 
 from ..budget import EpisodeBudget
-from ..engine import Cell, Pool, Task, child_seed
 from ..splits import NotApplicable, Split
+from ..tasks import Cell, Pool, Task, child_seed
 
 #: The N of the paper's generalisation curves (Fig. 5): 2..12-way.
 WAYS: tuple[int, ...] = tuple(range(2, 13))

@@ -19,7 +19,7 @@ come from; all three are run, side by side, none promoted:
   nominal dataset's closed-set test half (trials no method was fitted on), the queries
   from one perturbed combination, classes matched by name
   (``condition="enrolled:force=1.4N,speed=6mm/s"``, the engine's enrolment tasks:
-  :attr:`benchmark.engine.Task.support`); the engine adds ``condition="enrolled"`` over
+  :attr:`benchmark.tasks.Task.support`); the engine adds ``condition="enrolled"`` over
   every combination's episodes together.
 
 The 5-way-1-shot per-combination records form the force x speed heat maps (within
@@ -40,23 +40,16 @@ import numpy as np
 from synth import Dataset
 
 from ..budget import EpisodeBudget
-from ..engine import READING_SEPARATOR, WITHIN_CONDITION, Pool, Protocol, Task, n_query_for
 from ..guards import check_perturbation_pair
+from ..labels import ENROLLED, PERTURBATION, POOLED, READING_SEPARATOR, READINGS
 from ..splits import condition_name, split_halves
+from ..tasks import Pool, Protocol, Task, n_query_for
 from .closed_set import FIT_KEY, fit_seed
 from .curves import SHOT, WAYS, curve_grid
 
-PROTOCOL = "perturbation"
-POOLED = "pooled"
-#: The enrolment reading's name: its per-combination records are
-#: ``"enrolled:<combination>"``, its summary ``"enrolled"``.
-ENROLLED = "enrolled"
-#: The summaries of the three readings, in the order the report lists them.
-READINGS: tuple[tuple[str, str], ...] = (
-    (WITHIN_CONDITION, "support and queries within one force/speed condition"),
-    (POOLED, "support and queries drawn from all conditions' trials together"),
-    (ENROLLED, "support from the nominal test half, queries from one perturbed condition"),
-)
+__all__ = ["ENROLLED", "POOLED", "READINGS", "Perturbation", "conditions"]
+
+PROTOCOL = PERTURBATION
 
 
 def conditions(perturbed: Dataset) -> list[tuple[float, float]]:

@@ -18,7 +18,8 @@ from synth import Dataset
 from tactile_synth.validation import check_choice, check_int
 
 from .. import checkpoints
-from ..engine import Features, check_methods
+from ..cells import Features
+from ..methods import check_methods
 from ..plan import QUICK_METHODS, log
 from ..results import Record, write_results
 from .families import FAMILY_NAMES, QUICK_FAMILIES, SEVERITIES, get, parse_severities
@@ -209,8 +210,8 @@ def _test_sets(
     query."""
     from synth import load_dataset
 
-    from ..engine import child_seed
     from ..splits import split_halves
+    from ..tasks import child_seed
 
     conds = conditions(opts["families"], opts["severities"])
     enrol = None

@@ -21,7 +21,8 @@ from synth import Dataset
 from synth.presets import GenerationConfig
 
 from ..budget import EpisodeBudget
-from ..engine import Cell, Features, Pool, Task, child_seed, run_task_sets
+from ..cells import Features
+from ..engine import run_task_sets
 from ..protocols.closed_set import FIT_KEY, fit_seed
 from ..results import (
     Record,
@@ -30,6 +31,8 @@ from ..results import (
     StressScoreRecord,
 )
 from ..splits import split_halves
+from ..tasks import Cell, Pool, Task, child_seed
+from ..workers import ProcessPool
 from .families import PhysicalFamily, SensorFamily, StressFamily
 from .metrics import scores
 
@@ -238,7 +241,7 @@ def stress_records(
         methods,
         features=features or Features(),
         progress=progress,
-        workers=workers,
+        executor=ProcessPool(workers),
         fit_cache=fit_cache,
         options=options,
     ).sets[0]
