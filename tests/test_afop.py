@@ -15,18 +15,7 @@ from models.features import extract
 from models.prototypes import adapt_cosine_head
 from tests.synthetic_data import make_dataset
 
-
-@pytest.fixture(autouse=True)
-def _one_torch_thread():
-    """One torch thread: on a shared 2-core machine torch's default intra-op pool
-    oversubscribes the cores (measured: the separable/shuffled test took 270 s with the
-    default threads under load 3.7, 23 s with one thread)."""
-    import torch
-
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 def _autograd_head(f, support, query, steps, lr=1.5e-3, lam=0.1, alpha=10.0):

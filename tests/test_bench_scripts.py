@@ -3,7 +3,6 @@ exit status 2, and ``--help`` shows a complete first sentence of what each measu
 
 from __future__ import annotations
 
-import importlib.util
 import subprocess
 import sys
 from pathlib import Path
@@ -11,18 +10,15 @@ from pathlib import Path
 import pytest
 
 import synth.store
+from tests.support import SCRIPTS, load_script
 from tests.synthetic_data import make_dataset
 
 ROOT = Path(__file__).resolve().parents[1]
-SCRIPTS = ROOT / "scripts"
 
 
 def _script(name: str, monkeypatch):
     monkeypatch.syspath_prepend(str(SCRIPTS))  # the scripts import their shared helper
-    spec = importlib.util.spec_from_file_location(f"{name}_script", SCRIPTS / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script(name)
 
 
 def _fails(main, argv, capsys) -> str:

@@ -9,28 +9,14 @@ import pytest
 
 from benchmark import protocols
 from benchmark.protocols import closed_set
-from benchmark.results import read_results, select
+from benchmark.results import AccuracyRecord, read_results, select
+from tests.support import class_signals, record_fields
 from tests.synthetic_data import make_dataset
 
-
-@pytest.fixture(autouse=True)
-def _one_torch_thread():
-    """One torch thread: on a shared 2-core machine torch's default intra-op pool
-    oversubscribes the cores (measured: the separable/shuffled test took 270 s with the
-    default threads under load 3.7, 23 s with one thread)."""
-    import torch
-
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
-FIELDS = {
-    "record", "schema_version", "protocol", "fold", "condition", "method", "way", "shot", "query",
-    "episodes", "accuracy", "ci95", "pretrain_s", "adapt_ms_per_episode", "latency_ms_per_episode",
-    "latency_with_features_ms_per_episode", "latency_episodes", "feature_dim",
-}  # fmt: skip
+FIELDS = record_fields(AccuracyRecord)
 
 
 def test_split_halves_is_a_seeded_per_class_half_split():
@@ -72,27 +58,13 @@ def test_columns_shrink_to_what_small_pools_hold():
         protocols.run("closed-set", make_dataset(trials_per_class=1, n_samples=300), episodes=5)
 
 
-def _class_signals(specs, synth, threads):
-    """A stand-in simulator (tests of the CLI, not of physics): class-specific sines."""
-    from synth.trial import class_index
-
-    t = np.arange(2000) / 1000.0
-    rows = []
-    for s in specs:
-        c = class_index(s.shape, s.material)
-        rng = np.random.default_rng(s.seed)
-        sig = np.sin(2 * np.pi * (1 + c) * t + rng.uniform(0, 6.28, (4, 1)))
-        rows.append((sig + 0.3 * rng.standard_normal((4, 2000))).astype(np.float32))
-    return np.stack(rows)
-
-
 def test_cli_writes_results_report_and_table(tmp_path, capsys):
     import synth
     from benchmark.cli import main
 
     path = tmp_path / "ds"
     config = synth.PRESETS["quick"].replace(trials_per_class=6)
-    synth.generate(config, path, workers=1, progress=False, simulator=_class_signals)
+    synth.generate(config, path, workers=1, progress=False, simulator=class_signals)
     out = tmp_path / "out"
     args = ["benchmark", "closed-set", "--data", str(path), "--out", str(out)]
     assert main([*args, "--methods", "AFOP-ML", "--episodes", "20"]) == 0

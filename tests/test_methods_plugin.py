@@ -6,29 +6,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from benchmark.results import read_results, select
 from models import registry
 from models.base import FewShotMethod
+from tests.support import class_signals
 
 REPO = Path(__file__).resolve().parents[1]
 SPEC = "examples.nearest_mean:NearestClassMean"
-
-
-def _class_signals(specs, synth, threads):
-    """A stand-in simulator (tests of the CLI, not of physics): class-specific sines."""
-    from synth.trial import class_index
-
-    t = np.arange(2000) / 1000.0
-    rows = []
-    for s in specs:
-        c = class_index(s.shape, s.material)
-        rng = np.random.default_rng(s.seed)
-        sig = np.sin(2 * np.pi * (1 + c) * t + rng.uniform(0, 6.28, (4, 1)))
-        rows.append((sig + 0.3 * rng.standard_normal((4, 2000))).astype(np.float32))
-    return np.stack(rows)
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +23,7 @@ def store(tmp_path_factory):
 
     path = tmp_path_factory.mktemp("plugin") / "ds"
     config = synth.PRESETS["quick"].replace(trials_per_class=6)
-    synth.generate(config, path, workers=1, progress=False, simulator=_class_signals)
+    synth.generate(config, path, workers=1, progress=False, simulator=class_signals)
     return path
 
 

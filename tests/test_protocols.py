@@ -10,42 +10,15 @@ import pytest
 
 from benchmark import engine, fits, protocols
 from benchmark.protocols import closed_set
-from benchmark.results import TIMING_FIELDS, select
+from benchmark.results import TIMING_FIELDS, AccuracyRecord, SelectionRecord, select
 from benchmark.splits import CROSS_SHAPE_FOLDS, NotApplicable, condition_name, split_halves
 from models.base import FewShotMethod
 from synth import CLASS_NAMES, MATERIAL_NAMES
+from tests.support import record_fields
 from tests.synthetic_data import make_dataset
 
-ACCURACY_FIELDS = {
-    "record",
-    "schema_version",
-    "protocol",
-    "fold",
-    "condition",
-    "method",
-    "way",
-    "shot",
-    "query",
-    "episodes",
-    "accuracy",
-    "ci95",
-    "pretrain_s",
-    "adapt_ms_per_episode",
-    "latency_ms_per_episode",
-    "latency_with_features_ms_per_episode",
-    "latency_episodes",
-    "feature_dim",
-}
-SELECTION_FIELDS = {
-    "record",
-    "schema_version",
-    "protocol",
-    "fold",
-    "D",
-    "pvdf_share",
-    "sg_share",
-    "selected",
-}
+ACCURACY_FIELDS = record_fields(AccuracyRecord)
+SELECTION_FIELDS = record_fields(SelectionRecord)
 
 
 class Spy(FewShotMethod):

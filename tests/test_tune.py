@@ -4,7 +4,6 @@ training data only."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from pathlib import Path
 
@@ -16,15 +15,13 @@ from models.afop import AFOPML
 from models.cwt_resnet import CWTResNetML
 from models.direct_prot import DirectProtML
 from models.tuned import TUNED_FILE, tuned_values
+from tests.support import load_script
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def _tune_module():
-    spec = importlib.util.spec_from_file_location("tune_script", ROOT / "scripts" / "tune.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("tune")
 
 
 def test_committed_values_follow_from_the_committed_evidence():
