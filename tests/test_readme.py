@@ -1,6 +1,8 @@
-"""The README stays true: its Python block runs as shown, and every ``tactile-synth``
+"""The README stays true: its Python block runs as shown, every ``tactile-synth``
 command it names (in its bash blocks, its inline code and its command table) is a real
-sub-command that accepts the options shown."""
+sub-command that accepts the options shown, its docs index lists exactly the pages of
+docs/, and its paper rows are the paper's Table I as ``benchmark.paper_reference`` holds
+it."""
 
 from __future__ import annotations
 
@@ -145,3 +147,23 @@ def test_the_python_block_runs_as_shown(tmp_path):
     ways = [int(r[1]) for r in rows]
     assert ways == sorted(ways) and set(ways) <= {5, 10, 12, 28, 36}
     assert all(0.0 <= float(r[2]) <= 100.0 for r in rows)
+
+
+def test_the_docs_index_lists_every_page_and_only_pages_that_exist():
+    index = README.split("## Docs", 1)[1]
+    named = set(re.findall(r"`(docs/[\w-]+\.md)`", index))
+    pages = {f"docs/{p.name}" for p in (ROOT / "docs").glob("*.md")}
+    assert named == pages, (pages - named, named - pages)
+    # Every docs page the README names anywhere exists.
+    for page in set(re.findall(r"`(docs/[\w-]+\.md)`", README)):
+        assert (ROOT / page).is_file(), page
+
+
+def test_the_paper_rows_are_the_papers_table_one():
+    from benchmark.paper_reference import TABLE_ONE_ACCURACY_PCT
+
+    rows = re.findall(r"^\| (\S+) \| paper \| (.*) \|$", README, flags=re.M)
+    assert {method for method, _ in rows} == set(TABLE_ONE_ACCURACY_PCT)
+    for method, cells in rows:
+        expected = [TABLE_ONE_ACCURACY_PCT[method][(1, way)] for way in (5, 10, 12, 28, 36)]
+        assert [float(c) for c in cells.split(" | ")] == expected, method
