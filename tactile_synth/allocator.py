@@ -6,7 +6,7 @@ are allocated and freed at every step. glibc serves a block above its mmap thres
 (dynamic, 128 kB to 32 MB) with a fresh ``mmap`` and unmaps it on free, and it trims
 the heap's free top beyond 128 kB: every training step then faults its memory in again,
 page by page, and a good part of a training loop's time goes to the kernel
-(``scripts/bench_malloc.py`` measures it; the README has the figures).
+(``scripts/bench_malloc.py`` measures it; ``docs/speed.md`` has the figures).
 
 Importing this module raises both thresholds with ``mallopt`` (glibc only; elsewhere it
 does nothing): blocks up to :data:`MMAP_THRESHOLD_BYTES` come from the heap, and up to

@@ -45,6 +45,18 @@ def test_committed_values_follow_from_the_committed_evidence():
         assert f"`{st['parameter']}`" in page
 
 
+def test_the_evidence_page_is_the_scripts_rendering_of_the_committed_evidence():
+    """docs/tuning.md is generated: its text (the model-selection section included) is
+    exactly what ``scripts/tune.py --write`` writes for the committed values and evidence."""
+    tune = _tune_module()
+    values = json.loads(TUNED_FILE.read_text())
+    evidence = json.loads((ROOT / "docs" / "tuning.json").read_text())
+    meta = {k: evidence[k] for k in ("command", "data", "seed", "episodes")}
+    page = tune.evidence_markdown(meta, values["values"], evidence["steps"])
+    assert (ROOT / "docs" / "tuning.md").read_text() == page
+    assert "## How the values are chosen" in page
+
+
 def test_methods_use_the_tuned_values_by_default():
     v = tuned_values()
     a = AFOPML()
