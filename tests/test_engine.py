@@ -105,11 +105,11 @@ def test_tasks_with_one_fit_key_share_one_fit(data, monkeypatch):
 def test_plugin_protocol_on_the_command_line_and_as_entry_point(tmp_path, monkeypatch, capsys):
     import synth
     from benchmark.cli import main
-    from tests.test_methods_plugin import _class_signals
+    from tests.support import class_signals
 
     store = tmp_path / "ds"
     config = synth.PRESETS["quick"].replace(trials_per_class=4)
-    synth.generate(config, store, workers=1, progress=False, simulator=_class_signals)
+    synth.generate(config, store, workers=1, progress=False, simulator=class_signals)
     site = tmp_path / "site"
     info = site / "my_protocols-0.1.dist-info"
     info.mkdir(parents=True)

@@ -65,6 +65,7 @@ def test_an_enrolment_task_takes_support_from_its_support_pool(monkeypatch):
     from models import registry
 
     monkeypatch.setitem(registry._VARIANTS, "spy", ("tests.test_enrolment:Spy", "a spy"))
+    monkeypatch.setitem(registry._BUILTINS, "spy", "tests.test_enrolment:Spy")
     nominal = make_dataset(trials_per_class=6, n_samples=200, noise=0.1)
     other = make_dataset(trials_per_class=4, n_samples=200, noise=0.1, seed=7)
     # Trials are told apart by their first sample: the nominal ones >= 1000, the others < 0.

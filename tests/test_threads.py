@@ -286,13 +286,12 @@ def test_generated_bytes_do_not_depend_on_thread_counts(tmp_path, restore_thread
 
 # -- the report says which settings produced it ----------------------------------------------
 def test_cli_threads_option_sizes_the_run_and_the_report_states_it(tmp_path, restore_threads):
-    from test_closed_set import _class_signals
-
     from benchmark.cli import main
+    from tests.support import class_signals
 
     path = tmp_path / "ds"
     config = synth.PRESETS["quick"].replace(trials_per_class=6)
-    synth.generate(config, path, workers=1, progress=False, simulator=_class_signals)
+    synth.generate(config, path, workers=1, progress=False, simulator=class_signals)
     out = tmp_path / "out"
     args = ["benchmark", "closed-set", "--data", str(path), "--out", str(out)]
     assert main([*args, "--methods", "AFOP-ML", "--episodes", "5", "--threads", "1"]) == 0
