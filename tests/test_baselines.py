@@ -123,6 +123,7 @@ def test_deterministic_no_leak_and_rejects_malformed_support(name, easy):
         a.predict_episodes(sig, dup, batch.query)
 
 
+@pytest.mark.slow
 def test_raw_signal_baselines_choose_their_settings_on_training_data(easy, monkeypatch):
     """Without given values, CNN and BiLSTM pick a rate and a step count per validated shot
     and way on validation episodes of the training split, each curve read until a doubling

@@ -115,6 +115,7 @@ def test_an_incomplete_dataset_is_finished_the_cli_way(monkeypatch, capsys):
         ("tune", ["--episodes", "1_000"]),
     ],
 )
+@pytest.mark.slow
 def test_a_number_with_an_underscore_is_refused_naming_the_option(name, argv, tmp_path):
     # A child process: some scripts pin their CPU or allocator when they load.
     proc = subprocess.run(

@@ -205,6 +205,7 @@ def test_whatif_refuses_a_bad_setting_in_one_line(argv, message):
         calibrate.main(["whatif", *argv])
 
 
+@pytest.mark.slow
 def test_gain_sizes_the_default_post_gain_and_any_configurations(capsys):
     """The default post-gain is the one the script sizes; a film carrier that multiplies
     the bending charge by 4.8 (the 125 um laminate) gets a smaller one, rounded in the

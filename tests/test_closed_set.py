@@ -31,6 +31,7 @@ def test_split_halves_is_a_seeded_per_class_half_split():
     assert not np.array_equal(train, closed_set.split_halves(labels, seed=4)[0])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("shuffle", "expect"), [(False, "high"), (True, "chance")])
 def test_accuracy_is_high_when_separable_and_chance_when_shuffled(shuffle, expect):
     noise = 0.1  # separable by construction: each class has its own frequencies

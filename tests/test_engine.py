@@ -22,6 +22,7 @@ REPO = Path(__file__).resolve().parents[1]
 SPEC = "examples.leave_one_material_out:LeaveOneMaterialOut"
 
 
+@pytest.mark.slow
 def test_importing_the_engine_imports_no_protocol():
     code = (
         "import sys, benchmark.engine; "
@@ -133,6 +134,7 @@ def test_plugin_protocol_on_the_command_line_and_as_entry_point(tmp_path, monkey
     assert "PROTOCOL must be one of" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_a_benchmark_run_with_maml_writes_its_meta_curve():
     """The real MAML (a small dataset, few episodes): its validation curve on held-out
     training classes lands in the records, with steps rising and first-order stated."""

@@ -115,6 +115,7 @@ def test_condition_reading():
     assert condition_reading(None) == (None, None)
 
 
+@pytest.mark.slow
 def test_perturbation_protocol_runs_three_readings_on_one_fit():
     data = make_dataset(trials_per_class=6, n_samples=400, noise=0.2)
     pert = _perturbed()

@@ -142,6 +142,7 @@ g.generate(cfg, out, workers=1, progress=False, simulator=sim)
 """
 
 
+@pytest.mark.slow
 def test_second_writer_fails_at_once_naming_the_holder(tmp_path):
     out, gate = tmp_path / "ds", tmp_path / "gate"
     holder = subprocess.Popen(

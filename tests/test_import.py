@@ -837,6 +837,7 @@ def _recordings_and_previous(tmp_path: Path, previous: bool):
     return recs, out, before
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("previous", [False, True])
 def test_ctrl_c_in_a_zarr_write_leaves_no_unfinished_copy(tmp_path, previous):
     """A real SIGINT while zarr writes a chunk: the import stops after that write, so

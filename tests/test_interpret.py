@@ -51,6 +51,7 @@ def _closed_set_d(records) -> int:
     return d
 
 
+@pytest.mark.slow
 def test_one_fit_of_the_closed_set_half_feeds_selection_dscan_tsne_and_reference(
     datasets, tmp_path, monkeypatch
 ):
@@ -114,6 +115,7 @@ def test_one_fit_of_the_closed_set_half_feeds_selection_dscan_tsne_and_reference
     assert f"chosen D = {d}." in report and f"AFOP-ML's top-{d} feature space" in report
 
 
+@pytest.mark.slow
 def test_fits_in_worker_processes_and_a_resumed_run_report_one_closed_set_fit(
     datasets, tmp_path, monkeypatch
 ):

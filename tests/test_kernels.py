@@ -513,6 +513,7 @@ def _numpy_vector_levels() -> list[str]:
     return [f for f in ("X86_V4", "X86_V3") if __cpu_features__.get(f)]
 
 
+@pytest.mark.slow
 def test_the_simulated_signals_do_not_depend_on_the_cpus_vector_instructions():
     """The data path's array functions (the layer look-up, the friction laws, the contact
     mechanics, the piece choice, the felt surfaces), whole trials (every shape and

@@ -72,6 +72,7 @@ def band_accuracy(name: str, seed: int) -> dict[str, float]:
 MAX_GAP = {"MAML": 0.4, "CNN": 0.12, "BiLSTM": 0.12, "CWT-ResNet-ML": 0.12}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(SETTINGS))
 def test_high_band_tones_recognised_as_well_as_low_band(name):
     """Chance is 0.2 (500 queries per band: standard error about 0.02). Over seeds 0-9 the

@@ -670,6 +670,7 @@ def test_the_ridges_line_contact_averages_roughness_but_not_marks():
     np.testing.assert_array_equal(felt(marks, a).height_m, felt(marks, 0.0).height_m)
 
 
+@pytest.mark.slow
 def test_marks_at_an_angle_to_the_ridges_are_felt_as_their_mean_along_each_chord():
     """A turned specimen's marks cross each ridge's line contact at an angle: the felt
     surface equals the marks averaged numerically along every ridge's chord of the

@@ -247,6 +247,7 @@ def test_unknown_method_and_missing_perturbed(data):
         protocols.run("perturbation", data, perturbed=None, methods=["AFOP-ML"], episodes=5)
 
 
+@pytest.mark.slow
 def test_same_seed_same_records_with_real_afop(data):
     def both():
         kw = dict(methods=["AFOP-ML"], episodes=15, seed=3)

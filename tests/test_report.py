@@ -176,6 +176,7 @@ def test_report_numbers_ignore_timing_only(tmp_path):
     assert strip_timing(c) != strip_timing(a)
 
 
+@pytest.mark.slow
 def test_figures_are_written(tmp_path):
     rs = fake_records()
     out = [

@@ -42,6 +42,7 @@ def datasets():
     return make_dataset(trials_per_class=6, n_samples=400, noise=0.2), _perturbed()
 
 
+@pytest.mark.slow
 def test_benchmark_all_writes_everything_and_is_deterministic(datasets, tmp_path):
     data, pert = datasets
     kw = dict(methods=["AFOP-ML"], budget=Budget(default=20), seed=4, progress=False)
@@ -73,6 +74,7 @@ def test_benchmark_all_writes_everything_and_is_deterministic(datasets, tmp_path
     assert comparable(c) != comparable(a)
 
 
+@pytest.mark.slow
 def test_benchmark_all_resumes_from_checkpoints(datasets, tmp_path, monkeypatch):
     data, pert = datasets
     kw = dict(methods=["AFOP-ML"], budget=Budget(default=10), seed=0, progress=False)
@@ -142,6 +144,7 @@ def test_checkpoints_are_recomputed_after_an_edit_to_a_plugin_file(datasets, tmp
     assert len(ran) == 3, "a checkpoint made by other plug-in code was reused"
 
 
+@pytest.mark.slow
 def test_an_interrupted_run_keeps_its_finished_fits(datasets, tmp_path, monkeypatch):
     """Each fit is checkpointed as it finishes: a run interrupted part-way through its
     protocols continues with the fits that were not finished, gives the records of an
@@ -214,6 +217,7 @@ class FakeSimulator:
         return np.stack(rows)
 
 
+@pytest.mark.slow
 def test_run_quick_with_fake_simulator_is_resumable(tmp_path, monkeypatch):
     monkeypatch.setattr(synth.config, "validate_synth_config", lambda synth: None)
     monkeypatch.setattr(synth.config, "default_synth_config", lambda: {"fake": True})

@@ -176,6 +176,7 @@ def test_warm_cache_read_does_not_import_build123d(cold_cache, cache_env):
     assert out.split()[0] == "False"
 
 
+@pytest.mark.slow
 def test_concurrent_cold_builds_agree(tmp_path):
     procs = [_run_worker("triangle", tmp_path) for _ in range(2)]
     outs = [p.communicate(timeout=120)[0] for p in procs]

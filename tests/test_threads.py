@@ -170,6 +170,7 @@ def test_every_package_sets_the_environment_before_numpy_loads(module):
     assert fresh(code) is True
 
 
+@pytest.mark.slow
 def test_pools_of_torch_and_blas_follow_the_budget():
     code = (
         "import json; import models.nets, torch, threadpoolctl; from tactile_synth import "
@@ -233,6 +234,7 @@ def _tiny(**changes) -> synth.GenerationConfig:
     return synth.GenerationConfig(**{**base, **changes})
 
 
+@pytest.mark.slow
 def test_process_pool_workers_each_get_one_share(tmp_path, monkeypatch):
     share = threads.worker_threads(2)
     monkeypatch.setenv("TACTILE_SYNTH_THREADS", str(share + 2))  # what workers would inherit

@@ -110,6 +110,7 @@ def test_tables_and_report_list_the_paper_first_then_beyond_the_paper():
     assert "| AFO-MLP-ML+meta | here |" in tail and "paper |" not in tail.split("\n\n")[0]
 
 
+@pytest.mark.slow
 def test_paper_afo_mlp_trains_nothing_at_fit_but_the_feature_optimisation(easy, monkeypatch):
     """Its fit is AFOP-ML's feature optimisation and the choice of the per-episode steps
     and rate on validation episodes: every network it trains there starts fresh and is
@@ -220,6 +221,7 @@ def test_method_options_are_parsed_and_checked():
         check_method_options({"CWT-ResNet-ML": {"weights": "/no/such.pth"}}, ["CWT-ResNet-ML"])
 
 
+@pytest.mark.slow
 def test_bad_method_option_on_the_command_line_is_one_line(tmp_path):
     cmd = [
         sys.executable,

@@ -132,6 +132,7 @@ def test_the_reference_curve_is_evaluated_on_the_closed_set_fit(datasets, monkey
     assert {s.record.method for s in done[0].scored} == {counting, "AFOP-ML"}
 
 
+@pytest.mark.slow
 def test_sets_complete_in_their_own_order_of_records(datasets):
     """A set's records come in task, method, cell order, whatever set shares its fit."""
     sets = _sets(datasets)
@@ -163,6 +164,7 @@ def test_worker_processes_give_the_records_of_one_process(datasets):
     assert multiprocessing.active_children() == []
 
 
+@pytest.mark.slow
 def test_a_failing_fit_stops_the_run_with_its_error(datasets):
     sets = _sets(datasets)
     with pytest.raises(PluginError, match="failed in fit: ValueError: this fit fails on purpose"):
@@ -175,6 +177,7 @@ def test_a_failing_fit_stops_the_run_with_its_error(datasets):
     assert multiprocessing.active_children() == []
 
 
+@pytest.mark.slow
 def test_an_interrupt_stops_the_workers_at_once(datasets):
     sets = _sets(datasets)
     # Ctrl-C (SIGINT to this process) while both workers sleep in their fits. A shell
