@@ -12,9 +12,7 @@ import numpy as np
 from synth import Dataset
 
 from .checkpoints import fingerprint
-from .tables import (
-    markdown_table,
-)
+from .tables import markdown_table
 
 
 def dataset_summary(data: Dataset, path: str | Path | None) -> str:

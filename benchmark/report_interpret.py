@@ -10,9 +10,7 @@ import numpy as np
 
 from . import paper_reference as paper
 from .results import select
-from .tables import (
-    markdown_table,
-)
+from .tables import markdown_table
 
 RANKING_HEAD = 4
 

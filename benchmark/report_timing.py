@@ -12,10 +12,7 @@ import numpy as np
 
 from . import paper_reference as paper
 from .report_accuracy import GENERALISATION, accuracy_records, protocol_methods
-from .tables import (
-    markdown_table,
-    ms,
-)
+from .tables import markdown_table, ms
 
 TIMING_START = "<!-- timing -->"
 TIMING_END = "<!-- /timing -->"

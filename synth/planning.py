@@ -36,10 +36,7 @@ from shapes import SPECIMEN, Specimen, SpecimenLike
 
 from . import contact, texture
 from . import scene as scene_mod
-from .closed_loop import (
-    LoopTrial,
-    force_loop_gain_m_per_n_s,
-)
+from .closed_loop import LoopTrial, force_loop_gain_m_per_n_s
 from .config import SynthConfig
 from .trial import N_SAMPLES, SAMPLE_RATE_HZ, WINDOW_S, TrialSpec, class_key
 
