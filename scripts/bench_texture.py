@@ -101,9 +101,12 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--force and --speeds must be > 0 and --margin-mm >= 0")
     config = synth.SynthConfig()
     if args.set:
-        from calibrate import _configured  # scripts/ is on the path when run as a script
+        from synth.calibration.settings import CalibrationError, configured
 
-        config = _configured(args.set)
+        try:
+            config = configured(args.set)
+        except CalibrationError as exc:
+            raise SystemExit(str(exc)) from None
     speeds = sorted(args.speeds)
     table = measure(config, speeds, args.seeds, args.force, args.margin_mm * 1e-3)
     print(f"films' {BAND_HZ[0]:g}-{BAND_HZ[1]:g} Hz RMS (mV) on the square's steady top, ")

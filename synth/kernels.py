@@ -5,7 +5,7 @@ its sensors, looks up the texture under each contact, chooses the pieces a conca
 outline's skin may touch and assembles the next period's controls: a few dozen small
 array operations on arrays of the batch's size, about a thousand times per trial. As
 numpy expressions each operation pays a call's fixed cost, which added up to 4-5 ms per
-trial, about an eighth of the physics' time. The sensor chain (:func:`synth.simulator._process`)
+trial, about an eighth of the physics' time. The sensor chain (:func:`synth.recording._process`)
 starts from a dozen full-length expressions that each write a temporary array. Numba (a
 JIT compiler for numeric Python) runs each group as one loop instead.
 
@@ -443,7 +443,7 @@ def mechanics(
     ``pitch_col``, less the finger's own pitch ``pitch0``), how far the contact centre
     lies ahead of the pad along the path ``direction`` ``(b, 2)``, the skin's indentation
     (the deepest penetration, 0 without one) and the traction along the path
-    (:func:`synth.simulator._process`'s mechanics)."""
+    (:func:`synth.recording._process`'s mechanics)."""
     c_contact, c_pad, c_depth, c_force, c_torque = cols[0], cols[1], cols[2], cols[3], cols[4]
     periods, b, per = sens.shape[0], sens.shape[1], sens.shape[2]
     for i in range(b):

@@ -28,7 +28,7 @@ The felt surface is also inclined by its local slope ``dh/ds``: the contact norm
 so the contact force gains a tangential component ``-slope * F_n`` (pointing downhill)
 that a flat collision surface does not produce; the controller applies it to the skin at
 the contact point from the simulated normal force, and the films read it as part of the
-skin's traction (:func:`synth.simulator._process`).
+skin's traction (:func:`synth.recording._process`).
 """
 
 from __future__ import annotations

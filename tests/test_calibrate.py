@@ -1,4 +1,6 @@
-"""scripts/calibrate.py: argument checks and the selection-share measurement of its sweep."""
+"""The calibration: scripts/calibrate.py's command line (argument checks, each subcommand
+run end to end) and the computations it calls in synth.calibration and
+benchmark.calibration (the sweep's bookkeeping, the scatters, the selection shares)."""
 
 from __future__ import annotations
 
@@ -12,9 +14,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import benchmark.calibration as measure
 import synth
 from models.features import FEATURE_NAMES
 from synth import contact, sensors
+from synth.calibration import gain, scatter, settings, sweep, update
+from synth.calibration.settings import CalibrationError
 from tests.synthetic_data import make_dataset
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -60,11 +65,10 @@ def test_sweep_refuses_a_base_value_outside_a_swept_parameters_range(item, messa
 
 
 def test_base_values_set_the_configuration_the_others_are_swept_around():
-    calibrate = _calibrate_module()
-    got = calibrate._parse_base(["variability.yaw_rad=0.01", "materials.texture_scale=0.5"])
+    got = settings.parse_base(["variability.yaw_rad=0.01", "materials.texture_scale=0.5"])
     assert got == {("variability", "yaw_rad"): 0.01, ("materials", "texture_scale"): 0.5}
-    with pytest.raises(SystemExit, match=re.escape("sets variability.yaw_rad twice")):
-        calibrate._parse_base(["variability.yaw_rad=0.01", "variability.yaw_rad=0.02"])
+    with pytest.raises(CalibrationError, match=re.escape("sets variability.yaw_rad twice")):
+        settings.parse_base(["variability.yaw_rad=0.01", "variability.yaw_rad=0.02"])
 
 
 def test_a_held_parameter_is_set_in_every_candidate_and_not_swept(tmp_path, monkeypatch):
@@ -81,7 +85,7 @@ def test_a_held_parameter_is_set_in_every_candidate_and_not_swept(tmp_path, monk
             "pvdf_share_paper_d_cross_material": 0.5,
         }
 
-    monkeypatch.setattr(calibrate, "_evaluate", evaluate)
+    monkeypatch.setattr(measure, "evaluate", evaluate)
     argv = ["sweep", "--base", "variability.friction_rel=0.05", "--out", str(tmp_path)]
     argv += ["--only", "variability.friction_rel", "--only", "variability.yaw_rad"]
     assert calibrate.main(argv) == 0
@@ -104,7 +108,7 @@ def test_set_moves_the_configuration_the_sweep_starts_from(tmp_path, monkeypatch
         seen.append((config.pvdf.post_gain, config.variability.yaw_rad))
         return _fake_metrics(config)
 
-    monkeypatch.setattr(calibrate, "_evaluate", evaluate)
+    monkeypatch.setattr(measure, "evaluate", evaluate)
     argv = ["sweep", "--set", "pvdf.post_gain=2", "--set", "variability.yaw_rad=0.01"]
     argv += ["--only", "variability.yaw_rad", "--out", str(tmp_path)]
     assert calibrate.main(argv) == 0
@@ -136,7 +140,7 @@ def test_an_interrupted_sweep_keeps_its_rows_and_resumes_where_it_stopped(tmp_pa
         calls.append(config.variability.yaw_rad)
         return _fake_metrics(config)
 
-    monkeypatch.setattr(calibrate, "_evaluate", evaluate)
+    monkeypatch.setattr(measure, "evaluate", evaluate)
     argv = ["sweep", "--only", "variability.yaw_rad", "--out", str(tmp_path)]
     with pytest.raises(SystemExit, match=r"sweep interrupted; 2 rows are in .*--resume"):
         calibrate.main(argv)
@@ -148,7 +152,7 @@ def test_an_interrupted_sweep_keeps_its_rows_and_resumes_where_it_stopped(tmp_pa
         calls.append(config.variability.yaw_rad)
         return _fake_metrics(config)
 
-    monkeypatch.setattr(calibrate, "_evaluate", resumed)
+    monkeypatch.setattr(measure, "evaluate", resumed)
     assert calibrate.main([*argv, "--resume"]) == 0
     assert calls == [0.0, 0.005, 0.01, 0.02]  # the first two were not measured again
     rows = json.loads((tmp_path / "calibration.json").read_text())
@@ -173,7 +177,7 @@ def test_sweep_resume_refuses_without_out_and_a_foreign_table(tmp_path, monkeypa
     def evaluate(*args):
         raise AssertionError("a refused sweep measures nothing")
 
-    monkeypatch.setattr(calibrate, "_evaluate", evaluate)
+    monkeypatch.setattr(measure, "evaluate", evaluate)
     with pytest.raises(SystemExit, match=r"--resume needs --out DIR"):
         calibrate.main(["sweep", "--resume"])
     table = tmp_path / "calibration.json"
@@ -229,33 +233,32 @@ def test_carrier_prints_each_films_settings_and_refuses_a_bad_thickness(monkeypa
         sized.append(config.pvdf)
         return 1.0, 2.0
 
-    monkeypatch.setattr(calibrate, "sized_gain", sized_gain)
+    monkeypatch.setattr(gain, "sized_gain", sized_gain)
     assert calibrate.main(["carrier", "--thickness-m", "50e-6"]) == 0
     out = capsys.readouterr().out
     offset, shear = sensors.film_on_carrier(
-        sized[0], synth.SynthConfig().finger, 50e-6, calibrate.CARRIER_MODULUS_PA
+        sized[0], synth.SynthConfig().finger, 50e-6, gain.CARRIER_MODULUS_PA
     )
     assert (sized[0].neutral_axis_offset_m, sized[0].shear_strain_per_n) == (offset, shear)
     assert out.startswith("carrier 50 um: neutral_axis_offset_m 2.84e-05, shear_strain_per_n")
     assert f"--set pvdf.shear_strain_per_n={shear:.3g} --set pvdf.post_gain=2`" in out
     assert calibrate.main(["carrier"]) == 0
-    assert len(capsys.readouterr().out.splitlines()) == len(calibrate.CARRIER_THICKNESSES_M)
+    assert len(capsys.readouterr().out.splitlines()) == len(gain.CARRIER_THICKNESSES_M)
     with pytest.raises(SystemExit, match=r"^--thickness-m 0: must be in \(0, 0.001\] m$"):
         calibrate.main(["carrier", "--thickness-m", "0"])
 
 
 def test_marks_scale_scales_the_periodic_marks_and_keeps_the_roughness():
-    calibrate = _calibrate_module()
     base = synth.SynthConfig()
-    ((key, value),) = calibrate._parse_set(["materials.marks_scale=0.25"]).items()
-    scaled = calibrate._with(base, *key, value)
+    ((key, value),) = settings.parse_set(["materials.marks_scale=0.25"]).items()
+    scaled = settings.with_value(base, *key, value)
     for name, material in base.materials.items():
         texture = scaled.materials[name].texture
         assert texture.roughness_rms_m == material.texture.roughness_rms_m
         for mark, original in zip(texture.periodic, material.texture.periodic, strict=True):
             assert mark.amplitude_m == pytest.approx(0.25 * original.amplitude_m)
             assert mark.wavelength_m == original.wavelength_m
-    assert calibrate._with(base, *key, 1.0).to_dict() == base.to_dict()
+    assert settings.with_value(base, *key, 1.0).to_dict() == base.to_dict()
 
 
 def test_whatif_refuses_a_configuration_the_adc_cannot_record_in_one_line():
@@ -286,8 +289,8 @@ def test_whatif_evaluates_the_set_configuration_over_every_seed(monkeypatch, cap
         acc = 90.0 + 2.0 * dataset_seed
         return {"closed_set_1shot_5way": acc, "closed_set_d": 8, "tsne_dgi": 4.769}
 
-    monkeypatch.setattr(calibrate, "_evaluate", evaluate)
-    monkeypatch.setattr(calibrate, "_closed_set_row", closed_set)
+    monkeypatch.setattr(measure, "evaluate", evaluate)
+    monkeypatch.setattr(measure, "closed_set_row", closed_set)
     argv = ["whatif", "--set", "pvdf.amplifier_noise_v_per_sqrt_hz=5.6e-4"]
     argv += ["--set", "acquisition.adc_bits=14", "--set", "materials.texture_scale=0.5"]
     argv += ["--set", "pvdf.post_gain=2"]
@@ -326,7 +329,7 @@ def test_whatif_keeps_the_dataset_of_seed_0_where_asked(tmp_path, monkeypatch, c
         (where / "seed").write_text(str(seed))
         return {"class_all": 0.5, **{f"pvdf_share_{k}": 0.3 for k in shares}}
 
-    monkeypatch.setattr(calibrate, "_evaluate", evaluate)
+    monkeypatch.setattr(measure, "evaluate", evaluate)
     keep = tmp_path / "kept"
     assert calibrate.main(["whatif", "--seeds", "3", "--keep", str(keep)]) == 0
     assert (keep / "seed").read_text() == "0"
@@ -347,7 +350,7 @@ def test_whatif_without_a_setting_measures_the_defaults(monkeypatch, capsys):
         shares = ("cross_shape", "cross_material", "paper_d_cross_shape", "paper_d_cross_material")
         return {"class_all": 0.5, **{f"pvdf_share_{k}": 0.3 for k in shares}}
 
-    monkeypatch.setattr(calibrate, "_evaluate", evaluate)
+    monkeypatch.setattr(measure, "evaluate", evaluate)
     assert calibrate.main(["whatif", "--trials-per-class", "4"]) == 0
     assert [c.to_dict() for c in seen] == [synth.SynthConfig().to_dict()]
     assert "what-if configuration: the defaults (" in capsys.readouterr().out
@@ -361,7 +364,6 @@ def test_whatif_without_a_setting_measures_the_defaults(monkeypatch, capsys):
 
 
 def test_a_candidate_over_seeds_reports_means_the_share_gap_and_their_spread():
-    calibrate = _calibrate_module()
     runs = [
         {
             "class_all": 0.9,
@@ -378,7 +380,7 @@ def test_a_candidate_over_seeds_reports_means_the_share_gap_and_their_spread():
             "pvdf_share_paper_d_cross_material": 0.5,
         },
     ]
-    got = calibrate._over_seeds(runs)
+    got = sweep.over_seeds(runs)
     assert got["class_all"] == pytest.approx(0.85)
     assert got["pvdf_share_cross_shape"] == pytest.approx(0.5)
     assert got["pvdf_share_gap"] == pytest.approx(0.0)
@@ -389,7 +391,7 @@ def test_a_candidate_over_seeds_reports_means_the_share_gap_and_their_spread():
     # At the paper's D: gaps +0.25 and -1/3.
     assert got["pvdf_share_paper_d_gap"] == pytest.approx((0.25 - 1 / 3) / 2)
     assert got["pvdf_share_paper_d_gap_sd"] == pytest.approx((0.25 + 1 / 3) / 2**0.5)
-    one = calibrate._over_seeds(runs[:1])
+    one = sweep.over_seeds(runs[:1])
     assert one["pvdf_share_gap"] == pytest.approx(0.1)
     assert one["pvdf_share_gap_sd"] == 0.0
 
@@ -411,9 +413,8 @@ def test_selection_shares_follow_where_the_planted_information_lies(seed, monkey
     monkeypatch.setattr(
         models.tuned, "tuned_values", lambda *a: {**values, "AFOP-ML": PLANTED_AFOP}
     )
-    calibrate = _calibrate_module()
     data = make_dataset(trials_per_class=6, noise=0.3, seed=seed)
-    shares = calibrate._selection_shares(data)
+    shares = measure.selection_shares(data)
     assert shares["pvdf_share_cross_material"] < 0.35
     assert shares["pvdf_share_cross_shape"] > shares["pvdf_share_cross_material"] + 0.10
     # The median feature count each protocol's selections chose, out of the pool's.
@@ -451,7 +452,7 @@ def test_selection_shares_report_each_fits_selection_and_ranking(monkeypatch):
             return self
 
     monkeypatch.setattr(models.afop, "AFOPML", KnownFit)
-    shares = _calibrate_module()._selection_shares(make_dataset(trials_per_class=2, seed=0))
+    shares = measure.selection_shares(make_dataset(trials_per_class=2, seed=0))
     assert shares == pytest.approx(
         {
             "pvdf_share_cross_shape": 0.75,
@@ -475,7 +476,7 @@ def test_variance_shares_split_a_features_variance_between_shapes_materials_and_
     s = (shape == "b").astype(float)
     m = (material == "resin").astype(float)
     x = np.stack([s, m, np.full(8, 3.0), trial, s + trial, s + 2 * m], axis=1)
-    by_shape, by_material = _calibrate_module().variance_shares(x, shape, material)
+    by_shape, by_material = measure.variance_shares(x, shape, material)
     np.testing.assert_allclose(by_shape, [1.0, 0.0, 0.0, 0.0, 0.5, 0.2], atol=1e-12)
     np.testing.assert_allclose(by_material, [0.0, 1.0, 0.0, 0.0, 0.0, 0.8], atol=1e-12)
 
@@ -495,9 +496,7 @@ def test_picks_show_a_three_material_selection_telling_materials_apart_with_the_
     monkeypatch.setattr(
         models.tuned, "tuned_values", lambda *a: {**values, "AFOP-ML": PLANTED_AFOP}
     )
-    fits = _calibrate_module().selection_picks(
-        make_dataset(trials_per_class=6, noise=0.3, seed=seed), 5
-    )
+    fits = measure.selection_picks(make_dataset(trials_per_class=6, noise=0.3, seed=seed), 5)
     assert [f["protocol"] for f in fits] == ["cross_shape"] * 3 + ["cross_material"] * 3
     cross_shape = fits[:3]
     pvdf = sum(f["pvdf"]["selected"] for f in cross_shape)
@@ -527,9 +526,8 @@ def test_picks_refuse_a_missing_dataset_and_a_bad_count_in_one_line(tmp_path, ca
 
 
 def test_the_texture_scale_scales_every_texture_amplitude_and_nothing_else():
-    calibrate = _calibrate_module()
     base = synth.SynthConfig()
-    half = calibrate._with(base, *calibrate.TEXTURE_SCALE, 0.5)
+    half = settings.with_value(base, *settings.TEXTURE_SCALE, 0.5)
     for name, material in base.materials.items():
         scaled = half.materials[name]
         assert scaled.friction == material.friction
@@ -543,14 +541,14 @@ def test_the_texture_scale_scales_every_texture_amplitude_and_nothing_else():
     assert dataclasses.replace(half, materials=base.materials) == base
     # At its default the sweep evaluates the unchanged configuration (shared with every
     # other parameter's default row).
-    default = calibrate._default(base, *calibrate.TEXTURE_SCALE)
-    assert calibrate._with(base, *calibrate.TEXTURE_SCALE, default).to_dict() == base.to_dict()
+    default = settings.default_value(base, *settings.TEXTURE_SCALE)
+    assert settings.with_value(base, *settings.TEXTURE_SCALE, default).to_dict() == base.to_dict()
 
 
 def test_the_friction_scatter_default_is_the_one_the_silicone_measurements_give(capsys):
     calibrate = _calibrate_module()
     config = synth.SynthConfig()
-    got = calibrate.friction_scatter(config)
+    got = scatter.friction_scatter(config)
     # The skin's mean Hertz pressure at 1 N lies nearest the 62.5 kPa runs of both silicones.
     assert 40 < got["pressure_kpa"] < 70
     assert got["chosen"] == {"Dragon Skin 10": 62.5, "Sil 950": 62.5}
@@ -565,7 +563,7 @@ def test_the_friction_scatter_default_is_the_one_the_silicone_measurements_give(
 def test_the_force_scatter_default_is_the_one_the_arms_repeatability_gives(capsys):
     calibrate = _calibrate_module()
     config = synth.SynthConfig()
-    got = calibrate.force_scatter(config)
+    got = scatter.force_scatter(config)
     f, m = config.finger, config.motion
     delta = float(
         contact.hertz_indentation_m(1.0, f.pad_radius_m, f.skin_modulus_pa, f.skin_poisson)
@@ -588,7 +586,6 @@ def test_the_force_scatter_default_is_the_one_the_arms_repeatability_gives(capsy
 
 
 def test_the_force_scatter_follows_the_finger_it_is_derived_from():
-    calibrate = _calibrate_module()
     config = synth.SynthConfig()
     rigid = dataclasses.replace(
         config,
@@ -606,32 +603,30 @@ def test_the_force_scatter_follows_the_finger_it_is_derived_from():
     delta = float(
         contact.hertz_indentation_m(1.0, f.pad_radius_m, f.skin_modulus_pa, f.skin_poisson)
     )
-    skin_only = calibrate.force_scatter(rigid)["value"]
+    skin_only = scatter.force_scatter(rigid)["value"]
     assert skin_only == pytest.approx(1.5 * (0.1e-3 / 3) / delta, rel=1e-9)
-    assert calibrate.force_scatter(stiff)["value"] / skin_only == pytest.approx(4.0, rel=1e-9)
+    assert scatter.force_scatter(stiff)["value"] / skin_only == pytest.approx(4.0, rel=1e-9)
     # A softer support takes up more of the depth error.
     soft = dataclasses.replace(
         config, finger=dataclasses.replace(f, pdms_normal_stiffness_n_m=1000.0)
     )
-    assert calibrate.force_scatter(soft)["value"] < calibrate.force_scatter(config)["value"]
+    assert scatter.force_scatter(soft)["value"] < scatter.force_scatter(config)["value"]
 
 
 def test_a_stiffer_skin_draws_the_friction_scatter_from_a_higher_pressure_run():
-    calibrate = _calibrate_module()
     config = synth.SynthConfig()
     stiff = dataclasses.replace(
         config, finger=dataclasses.replace(config.finger, skin_modulus_pa=3.0e6)
     )
-    got = calibrate.friction_scatter(stiff)
+    got = scatter.friction_scatter(stiff)
     assert got["pressure_kpa"] > 100
     assert got["chosen"]["Sil 950"] > 62.5
 
 
 def test_update_compares_each_period_with_the_reference_on_the_same_trials():
-    calibrate = _calibrate_module()
     small = dict(speeds=(10.0,), shapes=("circle",), materials=("wood", "aluminum"))
     config = synth.SynthConfig()
-    same = calibrate.update_convergence(config, (0.002, 0.002), **small)
+    same = update.update_convergence(config, (0.002, 0.002), **small)
     assert same["trials"] == 2 and same["reference_s"] == 0.002
     (row,) = same["rows"]
     assert row["speed_mm_s"] == 10.0
@@ -641,6 +636,6 @@ def test_update_compares_each_period_with_the_reference_on_the_same_trials():
     # Another seed is another stroke: its difference is far from zero.
     seeds = same["seeds"][10.0]
     assert seeds["pvdf_diff_median"] > 0.01 and seeds["sg_diff_median"] > 0.01
-    other = calibrate.update_convergence(config, (0.001, 0.004), **small)
+    other = update.update_convergence(config, (0.001, 0.004), **small)
     (row,) = other["rows"]
     assert row["surface_update_s"] == 0.004 and 0.0 < row["pvdf_diff_median"] < 1.0

@@ -11,6 +11,7 @@ import pytest
 MODULES = (
     "shapes.specimen",
     "synth.simulator",
+    "synth.calibration.settings",
     "synth.generation",
     "synth.store.loader",
     "benchmark.diagnose.analysis",

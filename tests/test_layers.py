@@ -60,6 +60,10 @@ BENCHMARK_LAYERS: tuple[tuple[str, ...], ...] = (
         "benchmark.interpret",
         "benchmark.report",
         "benchmark.report.*",
+        "benchmark.report_accuracy",
+        "benchmark.report_datasets",
+        "benchmark.report_interpret",
+        "benchmark.report_timing",
         "benchmark.tables",
     ),
 )

@@ -1,0 +1,263 @@
+"""Which global parameters the calibration moves, over which cited ranges, and the
+configurations a command line asks for (``--set SECTION.FIELD=VALUE`` and the sweep's
+``--base``).
+
+Two factors are not configuration fields: :data:`TEXTURE_SCALE` scales every material's
+texture amplitudes (roughness and periodic marks), :data:`MARKS_SCALE` the periodic marks
+alone; :func:`with_value` applies them like any field.
+
+Examples
+--------
+>>> import synth
+>>> config = configured(["variability.yaw_rad=0.01", "materials.texture_scale=0.5"])
+>>> config.variability.yaw_rad
+0.01
+>>> try:
+...     parse_base(["variability.friction_rel=0.3"])
+... except CalibrationError as exc:
+...     print(exc)
+--base variability.friction_rel must lie in its cited range 0.039..0.15; got 0.3
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from tactile_synth.validation import parse_number
+
+from ..config import SynthConfig
+from ..materials import Material
+
+
+class CalibrationError(ValueError):
+    """A calibration's input is refused or its measurement cannot be made; the message is
+    one line naming the option (``scripts/calibrate.py`` prints it and exits)."""
+
+
+#: Not a configuration field: a factor on every material's texture amplitudes (roughness
+#: and periodic marks), swept to see how much of the materials' signature the texture
+#: carries.
+TEXTURE_SCALE = ("materials", "texture_scale")
+#: Not a configuration field either: a factor on every material's periodic marks alone
+#: (the random roughness kept), for whatif to ask what the marks carry.
+MARKS_SCALE = ("materials", "marks_scale")
+#: The material-wide factors, which are not configuration fields.
+MATERIAL_FACTORS = (TEXTURE_SCALE, MARKS_SCALE)
+#: Configuration sections whose numeric fields ``--set`` may change.
+SECTIONS = ("finger", "motion", "variability", "strain_gauge", "pvdf", "acquisition")
+
+#: Global parameters and the values their sources allow: (section, field, candidates, why).
+SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
+    (
+        "motion",
+        "path_y_m",
+        (0.0, 0.001, 0.002, 0.003),
+        "where the robot slides relative to the outline's centre line (experiment design)",
+    ),
+    (
+        "variability",
+        "lateral_offset_m",
+        (0.1e-3, 0.25e-3, 0.5e-3),
+        "UR repeatability (+-0.1 mm) plus the specimen's play",
+    ),
+    (
+        "variability",
+        "yaw_rad",
+        (0.0, 0.005, 0.01, 0.02),
+        "the plate's turn in its fixture pocket: 2 x 0.15 mm play / 60 mm = 0.005 rad; 0 aligned",
+    ),
+    (
+        "variability",
+        "friction_rel",
+        (0.039, 0.05, 0.08, 0.12, 0.15),
+        "stroke-to-stroke friction scatter: 3.2-4.6 % (silicone on PLA at the skin's "
+        "pressure, their mean the default), 6-8 % (human skin) to 15 % (contaminated)",
+    ),
+    (
+        "variability",
+        "force_rel",
+        (0.02, 0.052, 0.1, 0.2),
+        "stroke-to-stroke error of the normal force at 1 N: 5.2 % from a UR5's +-0.1 mm pose "
+        "repeatability against the servo, PDMS and skin in series (the default), up to the "
+        "0.38 N a UR5e's force mode misses 1-10 N set points by (Trochimczuk et al. 2026); "
+        "2 % a tight servo",
+    ),
+    (
+        "motion",
+        "wrist_force_noise_n",
+        (0.0, 0.015, 0.05, 0.1),
+        "the wrist force sensor's noise per 10 ms reading: an FT 300's 0.1 N noise-free "
+        "resolution read as 6.6 standard deviations (the default) or as the RMS; 0 an ideal "
+        "sensor",
+    ),
+    (
+        "finger",
+        "pdms_thickness_m",
+        (0.003, 0.004, 0.006),
+        "the PDMS support's thickness (a free choice, 1-4 mm plausible): modes from 380 / "
+        "310 Hz (shear / rocking, 3 mm) down to 270 / 165 Hz (6 mm); 2 mm diverges at the "
+        "0.5 ms step",
+    ),
+    (
+        "finger",
+        "pdms_damping_ratio",
+        (0.05, 0.15, 0.2),
+        "damping of the PDMS modes: half a silicone's loss tangent (0.1-0.4)",
+    ),
+    (
+        "pvdf",
+        "feedback_resistance_ohm",
+        (1e9, 100e6, 10e6),
+        "charge-amplifier high-pass 0.16 / 1.6 / 16 Hz",
+    ),
+    (
+        "pvdf",
+        "shear_strain_per_n",
+        (1.9e-4, 2.81e-4, 4.2e-4),
+        "the films' shear coupling on their 75 um carrier: the depth the skin carries the "
+        "traction over, known to within a factor of 1.5 (the carrier's own range, 23-125 "
+        "um, is `calibrate.py carrier`'s)",
+    ),
+    (
+        "finger",
+        "ridge_width_m",
+        (0.1e-3, 0.15e-3, 0.2e-3, 0.3e-3),
+        "a fingerprint ridge's contact width: ridges are 100-300 um wide (Maltoni et al.)",
+    ),
+    (
+        "finger",
+        "ridge_jitter",
+        (0.0, 0.1, 0.25, 0.4),
+        "irregularity of the ridge spacing: 0 a regular comb, up to 0.4 (ridges keep order)",
+    ),
+    (
+        *TEXTURE_SCALE,
+        (0.0, 0.5, 1.0, 2.0),
+        "sensitivity, not a calibration: every material's texture scaled; at 0 the "
+        "materials do not differ at all (they share the silicone's friction law)",
+    ),
+)
+
+
+def scaled_texture(
+    material: Material, factor: float, roughness_factor: float | None = None
+) -> Material:
+    """``material`` with every periodic mark's amplitude times ``factor`` and its
+    roughness RMS times ``roughness_factor`` (``factor`` if not given); its correlation
+    length and wavelengths unchanged."""
+    texture = material.texture
+    roughness = factor if roughness_factor is None else roughness_factor
+    marks = tuple(
+        dataclasses.replace(p, amplitude_m=p.amplitude_m * factor) for p in texture.periodic
+    )
+    scaled = dataclasses.replace(
+        texture, roughness_rms_m=texture.roughness_rms_m * roughness, periodic=marks
+    )
+    return dataclasses.replace(material, texture=scaled)
+
+
+def with_value(config: SynthConfig, section: str, field: str, value: float) -> SynthConfig:
+    """``config`` with ``section.field`` set to ``value`` (a material-wide factor of
+    :data:`MATERIAL_FACTORS` scales every material's texture instead)."""
+    if (section, field) in MATERIAL_FACTORS:
+        roughness = value if (section, field) == TEXTURE_SCALE else 1.0
+        for material in config.materials.values():
+            config = config.with_material(scaled_texture(material, value, roughness))
+        return config
+    part = dataclasses.replace(getattr(config, section), **{field: value})
+    return dataclasses.replace(config, **{section: part})
+
+
+def default_value(config: SynthConfig, section: str, field: str) -> float:
+    """The configuration's value of a swept parameter (1 for the material factors)."""
+    if (section, field) in MATERIAL_FACTORS:
+        return 1.0
+    return getattr(getattr(config, section), field)
+
+
+def parse_set(items: list[str] | None) -> dict[tuple[str, str], float]:
+    """``--set SECTION.FIELD=VALUE`` items as ``{(section, field): value}``: a numeric
+    field of a configuration section (or ``materials.texture_scale`` or
+    ``materials.marks_scale``), each set once; none gives an empty table."""
+    defaults = SynthConfig()
+    out: dict[tuple[str, str], float] = {}
+    for item in items or ():
+        name, sep, text = item.partition("=")
+        section, _, field = name.partition(".")
+        known = (section, field) in MATERIAL_FACTORS or (
+            section in SECTIONS
+            and field in {f.name for f in dataclasses.fields(getattr(defaults, section))}
+            and type(getattr(getattr(defaults, section), field)) in (int, float)
+        )
+        if not sep or not known:
+            raise CalibrationError(
+                "--set must be SECTION.FIELD=VALUE with a numeric field of "
+                f"{', '.join(SECTIONS)} (or materials.texture_scale or .marks_scale); "
+                f"got {item!r}"
+            )
+        try:
+            value = parse_number(text)
+        except ValueError:
+            value = math.nan
+        if not math.isfinite(value):
+            raise CalibrationError(f"--set {name} needs a finite number; got {text!r}")
+        if (section, field) in out:
+            raise CalibrationError(f"--set sets {name} twice")
+        if (section, field) not in MATERIAL_FACTORS and type(
+            getattr(getattr(defaults, section), field)
+        ) is int:
+            if not value.is_integer():
+                raise CalibrationError(f"--set {name} needs a whole number; got {text!r}")
+            value = int(value)
+        out[section, field] = value
+    return out
+
+
+def configured(items: list[str] | None) -> SynthConfig:
+    """The default configuration with the ``--set`` items applied (none: the defaults)."""
+    config = SynthConfig()
+    for (section, field), value in parse_set(items).items():
+        try:
+            config = with_value(config, section, field, value)
+        except ValueError as exc:
+            raise CalibrationError(f"--set {section}.{field}={value:g}: {exc}") from None
+    return config
+
+
+def parse_base(items: list[str] | None) -> dict[tuple[str, str], float]:
+    """``--base SECTION.FIELD=VALUE`` items as ``{(section, field): value}``, each naming a
+    swept parameter once and a value inside the range its candidates span (its cited
+    range)."""
+    ranges = {f"{s}.{f}": (s, f, min(c), max(c)) for s, f, c, _ in SWEEP}
+    out: dict[tuple[str, str], float] = {}
+    for item in items or ():
+        name, sep, text = item.partition("=")
+        if not sep or name not in ranges:
+            raise CalibrationError(
+                f"--base must be SECTION.FIELD=VALUE with a swept parameter "
+                f"({', '.join(sorted(ranges))}); got {item!r}"
+            )
+        try:
+            value = parse_number(text)
+        except ValueError:
+            raise CalibrationError(f"--base {name} needs a number; got {text!r}") from None
+        section, field, lo, hi = ranges[name]
+        if (section, field) in out:
+            raise CalibrationError(f"--base sets {name} twice")
+        if not lo <= value <= hi:
+            raise CalibrationError(
+                f"--base {name} must lie in its cited range {lo:g}..{hi:g}; got {value:g}"
+            )
+        out[section, field] = value
+    return out
+
+
+def check_swept(names: list[str] | None) -> None:
+    """Refuse ``--only`` names that are not swept parameters."""
+    known = {f"{section}.{field}" for section, field, _, _ in SWEEP}
+    for name in names or ():
+        if name not in known:
+            raise CalibrationError(
+                f"--only must name a swept parameter ({', '.join(sorted(known))})"
+            )

@@ -1,0 +1,148 @@
+"""The sweep's bookkeeping: the candidates it measures (each swept parameter over its
+cited range, the others at the base configuration's values), a candidate's metrics over
+its dataset seeds, and its tables (``calibration.json`` and ``calibration.md``, rewritten
+after every candidate so that an interrupted sweep keeps its rows and ``--resume`` reuses
+them). Measuring a configuration is :func:`benchmark.calibration.measured`'s.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Collection, Iterator, Mapping
+from pathlib import Path
+
+import numpy as np
+
+from ..config import SynthConfig
+from .settings import SWEEP, CalibrationError, default_value, with_value
+
+#: The metrics whose spread over dataset seeds the sweep reports beside their mean.
+SPREAD_KEYS = (
+    "pvdf_share_cross_shape",
+    "pvdf_share_cross_material",
+    "pvdf_share_gap",
+    "pvdf_share_paper_d_gap",
+)
+
+
+def candidates(
+    base: SynthConfig,
+    only: Collection[str] | None = None,
+    held: Mapping[tuple[str, str], float] | None = None,
+) -> Iterator[tuple[str, str, float, str, bool, SynthConfig]]:
+    """The sweep's candidates in :data:`synth.calibration.settings.SWEEP`'s order, as
+    ``(section, field, value, why, is_default, config)``: every candidate value of each
+    swept parameter (only those named ``SECTION.FIELD`` in ``only``, if given; none held
+    in ``held``, which ``base`` already holds at their ``--base`` values), set on
+    ``base``; ``is_default`` marks the value ``base`` has."""
+    for section, field, values, why in SWEEP:
+        if only and f"{section}.{field}" not in only:
+            continue
+        if held and (section, field) in held:
+            continue  # held at its --base value
+        default = default_value(base, section, field)
+        for value in values:
+            is_default = bool(np.isclose(value, default))
+            yield section, field, value, why, is_default, with_value(base, section, field, value)
+
+
+def over_seeds(per_seed: list[dict]) -> dict:
+    """One candidate's metrics over its dataset seeds: every metric's mean, the share gaps
+    (cross-shape minus cross-material PVDF share, of the selected features and of the
+    first :data:`benchmark.calibration.PAPER_D` ranked ones), and for the
+    :data:`SPREAD_KEYS` their standard deviation over the seeds (``*_sd``, 0 for one
+    seed)."""
+    rows = [
+        {
+            **r,
+            "pvdf_share_gap": r["pvdf_share_cross_shape"] - r["pvdf_share_cross_material"],
+            "pvdf_share_paper_d_gap": r["pvdf_share_paper_d_cross_shape"]
+            - r["pvdf_share_paper_d_cross_material"],
+        }
+        for r in per_seed
+    ]
+    out = {k: float(np.mean([r[k] for r in rows])) for k in rows[0]}
+    for k in SPREAD_KEYS:
+        out[f"{k}_sd"] = float(np.std([r[k] for r in rows], ddof=1)) if len(rows) > 1 else 0.0
+    return out
+
+
+def format_metric(key: str, value: float) -> str:
+    """A metric as the table shows it: feature counts to 1 decimal (a mean over seeds of
+    medians; whole numbers without it), accuracies and shares to 3 decimals."""
+    if key.startswith("d_"):
+        return f"{value:.1f}".removesuffix(".0")
+    return f"{value:.3f}"
+
+
+def previous_measurements(out: Path | None, trials_per_class: int, seeds: int) -> dict[str, dict]:
+    """``--resume``: the metrics of the rows in ``out/calibration.json`` that were measured
+    with this sweep's trials per class and seeds, by configuration."""
+    if out is None:
+        raise CalibrationError("--resume needs --out DIR (the sweep whose rows it keeps)")
+    path = out / "calibration.json"
+    if not path.is_file():
+        return {}
+    try:
+        rows = json.loads(path.read_text())
+        kept = {
+            r["config_sha256"]: {k: r[k] for k in r["metrics"]}
+            for r in rows
+            if (r["trials_per_class"], r["seeds"]) == (trials_per_class, seeds)
+        }
+    except (ValueError, KeyError, TypeError) as exc:
+        raise CalibrationError(
+            f"--resume: {path} is not a sweep table this script wrote ({type(exc).__name__}: "
+            f"{exc}); choose another --out or remove it"
+        ) from None
+    return kept
+
+
+def write_tables(out: Path, rows: list[dict], metrics: list[str], seeds: int) -> None:
+    """``out/calibration.json`` (every row, with the names of its metrics) and
+    ``calibration.md`` (the table), each replaced whole."""
+    out.mkdir(parents=True, exist_ok=True)
+    table = [{**r, "metrics": metrics} for r in rows]
+    keys = [k for k in metrics if not k.endswith("_sd")]
+    lines = ["| parameter | value | " + " | ".join(keys) + " |", "|---" * (len(keys) + 2) + "|"]
+    for r in rows:
+        mark = " (default)" if r["default"] else ""
+        vals = " | ".join(
+            format_metric(k, r[k])
+            + (f" ± {r[k + '_sd']:.3f}" if seeds > 1 and k in SPREAD_KEYS else "")
+            for k in keys
+        )
+        lines.append(f"| {r['parameter']} | {r['value']:g}{mark} | {vals} |")
+    for name, text in (
+        ("calibration.json", json.dumps(table, indent=1) + "\n"),
+        ("calibration.md", "\n".join(lines) + "\n"),
+    ):
+        tmp = out / f".{name}.partial"
+        tmp.write_text(text)
+        os.replace(tmp, out / name)
+
+
+def sweep_row(
+    parameter: str,
+    value: float,
+    why: str,
+    is_default: bool,
+    metrics: Mapping[str, float],
+    trials_per_class: int,
+    seeds: int,
+    config_sha256: str,
+) -> dict:
+    """One row of the sweep's table: the candidate (``SECTION.FIELD`` and its value,
+    whether it is the base's, why its range), its metrics, and what they were measured
+    with (trials per class, dataset seeds, the configuration's identity)."""
+    return {
+        "parameter": parameter,
+        "value": value,
+        "default": is_default,
+        "why": why,
+        **metrics,
+        "trials_per_class": trials_per_class,
+        "seeds": seeds,
+        "config_sha256": config_sha256,
+    }
