@@ -157,7 +157,9 @@ def run_fit(
     with plugin_stage(name, "fit"):
         method = make_method(name, seed=first.fit_seed, **(options or {}))
         t0 = time.perf_counter()
-        method.fit(fit.data.signals[fit.index], fit.labels, features=pool)
+        method.fit(
+            fit.data.signals[fit.index], fit.labels, features=pool, cells=tested_cells(group, name)
+        )
         pretrain_s = time.perf_counter() - t0
     if on_fit is not None:
         on_fit(first, name, method)
@@ -173,6 +175,20 @@ def run_fit(
             scored += evaluate_task(task, name, method, pretrain_s, features, bar)
         out.append(TaskResults(scored, fits))
     return FitResult(out)
+
+
+def tested_cells(group: FitGroup, name: str) -> list[tuple[int, int]]:
+    """The ``(way, shot)`` cells the fit of ``name`` on ``group`` is evaluated on, sorted:
+    what the method is told of the protocol's design before it fits."""
+    return sorted(
+        {
+            (cell.way, cell.shot)
+            for share in group.shares
+            if name in share.methods
+            for task in share.tasks
+            for cell in task.grid
+        }
+    )
 
 
 def job_cost(group: FitGroup, name: str) -> float:

@@ -211,6 +211,7 @@ class AFOMLPML(FewShotMethod):
             labels=labels,
             seed=self.seed,
             lrs=LRS,
+            needed=self.test_cells_,
         )
 
     def _predict(

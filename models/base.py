@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import inspect
 from abc import ABC, abstractmethod
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import ClassVar, Self
 
@@ -205,11 +205,21 @@ class FewShotMethod(ABC):
             SETTING_KINDS[kind](f"{method}: {name}", value)
 
     def fit(
-        self, signals: np.ndarray, labels: np.ndarray, *, features: np.ndarray | None = None
+        self,
+        signals: np.ndarray,
+        labels: np.ndarray,
+        *,
+        features: np.ndarray | None = None,
+        cells: Sequence[tuple[int, int]] | None = None,
     ) -> Self:
         """Offline training on the source classes.
 
-        signals: float32 ``(n, 4, T)``; labels: int ``(n,)`` class ids; features: ``(n, 386)``.
+        signals: float32 ``(n, 4, T)``; labels: int ``(n,)`` class ids; features: ``(n, 386)``;
+        cells: the ``(way, shot)`` pairs the fitted method will be tested on, when the
+        caller knows them (the benchmark passes its task's grid), else None. It tells only
+        the protocol's design, no test data: a method that chooses settings per cell on
+        validation episodes of the training split may validate only the cells these
+        episodes take their settings from (:attr:`test_cells_` holds them, sorted).
         """
         signals = np.asarray(signals)
         labels = np.asarray(labels)
@@ -221,6 +231,7 @@ class FewShotMethod(ABC):
             raise ValueError("fit needs trials of at least 2 classes")
         if features is not None and np.asarray(features).shape[0] != signals.shape[0]:
             raise ValueError("features must have one row per trial of signals")
+        self.test_cells_ = None if cells is None else _check_cells(cells)
         self._fit(signals, labels, features)
         self.fitted_ = True
         return self
@@ -278,3 +289,19 @@ class FewShotMethod(ABC):
         features: np.ndarray | None,
     ) -> np.ndarray:
         """Return ``(E, M)`` predictions (inputs already validated)."""
+
+
+def _check_cells(cells: Sequence[tuple[int, int]]) -> tuple[tuple[int, int], ...]:
+    """``cells`` as sorted unique ``(way, shot)`` pairs of integers >= 1; ValueError naming
+    ``cells`` otherwise."""
+    out = set()
+    for cell in cells:
+        pair = tuple(cell) if isinstance(cell, (tuple, list)) else ()
+        if len(pair) != 2 or not all(
+            isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 1 for v in pair
+        ):
+            raise ValueError(f"cells must hold (way, shot) pairs of integers >= 1; got {cell!r}")
+        out.add((int(pair[0]), int(pair[1])))
+    if not out:
+        raise ValueError("cells must name at least one (way, shot) pair, or be None")
+    return tuple(sorted(out))

@@ -218,6 +218,7 @@ class BiLSTMBaseline(FewShotMethod):
             labels=labels,
             seed=self.seed,
             lrs=LRS,
+            needed=self.test_cells_,
         )
 
     def _inputs(self, signals: np.ndarray) -> torch.Tensor:

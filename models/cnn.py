@@ -140,6 +140,7 @@ class CNNBaseline(FewShotMethod):
             labels=labels,
             seed=self.seed,
             lrs=LRS,
+            needed=self.test_cells_,
         )
 
     def _predict(

@@ -423,6 +423,18 @@ def validation_cells(
     return out
 
 
+def used_cells(
+    cells: Sequence[tuple[int, int, int]], needed: Sequence[tuple[int, int]] | None
+) -> set[int]:
+    """Indices into ``cells`` (``(shot, way, queries)`` validation cells) of those the
+    ``needed`` ``(way, shot)`` test cells take their settings from under
+    :meth:`Schedule.of`; all of them when ``needed`` is None."""
+    if needed is None:
+        return set(range(len(cells)))
+    probe = Schedule(tuple(Setting(shot, way, 0.0, i) for i, (shot, way, _) in enumerate(cells)))
+    return {probe.of(shot, way).steps for way, shot in needed}
+
+
 def _curve(
     net: EpisodeNet, x: torch.Tensor, batch: EpisodeBatch, lr: float, seed: int
 ) -> tuple[list[int], np.ndarray, bool]:
@@ -489,14 +501,24 @@ def select_schedule(
     steps: int | None = None,
     shots: Sequence[int] = VALIDATION_SHOTS,
     ways: Sequence[int] = VALIDATION_WAYS,
+    needed: Sequence[tuple[int, int]] | None = None,
 ) -> Schedule:
     """The :class:`Schedule` of a per-episode network chosen on validation episodes of
     ``labels`` (the training split; ``x`` its network input): for every validation cell
     (:func:`validation_cells`) and rate of ``lrs``, the validation curve over step counts
     (:func:`_curve`, or only ``steps`` when given), then :func:`choose_setting`. The same
-    episodes serve every rate, and every rate's networks start from the same weights."""
+    episodes serve every rate, and every rate's networks start from the same weights.
+
+    ``needed``: the ``(way, shot)`` cells the network will be tested on, or None for any.
+    Only the validation cells these take their settings from (:meth:`Schedule.of`) are
+    validated, each on the episodes it has among all cells, so every needed cell gets the
+    very setting the full validation gives it."""
+    cells = validation_cells(labels, shots, ways)
+    keep = used_cells(cells, needed)
     settings, curves = [], []
-    for i, (shot, way, query) in enumerate(validation_cells(labels, shots, ways)):
+    for i, (shot, way, query) in enumerate(cells):
+        if i not in keep:
+            continue
         episodes = min(
             MAX_VALIDATION_EPISODES,
             max(MIN_VALIDATION_EPISODES, -(-VALIDATION_QUERIES // (way * query))),
@@ -545,12 +567,20 @@ def schedule(
     labels: np.ndarray,
     seed: int,
     lrs: Sequence[float],
+    needed: Sequence[tuple[int, int]] | None = None,
 ) -> Schedule:
     """The given ``steps`` and ``lr`` when both are given, otherwise
     :func:`select_schedule` on validation episodes of the training ``labels`` (a given
-    value fixes its axis). ``inputs()`` -> the training pool's network input."""
+    value fixes its axis; ``needed``: the tested ``(way, shot)`` cells, None for any).
+    ``inputs()`` -> the training pool's network input."""
     if steps is not None and lr is not None:
         return Schedule.fixed(lr, steps)
     return select_schedule(
-        net, inputs(), labels, seed=seed, lrs=lrs if lr is None else (lr,), steps=steps
+        net,
+        inputs(),
+        labels,
+        seed=seed,
+        lrs=lrs if lr is None else (lr,),
+        steps=steps,
+        needed=needed,
     )

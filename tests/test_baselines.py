@@ -139,6 +139,19 @@ def test_raw_signal_baselines_choose_their_settings_on_training_data(easy, monke
         cells = nets.validation_cells(lab)
         assert cells == [(k, n, 3 - k) for k in (1, 2) for n in (5, 12, 15)]
         assert [(c.shot, c.way) for c in m.schedule_.settings] == [(k, n) for k, n, _ in cells]
+        # Told it is tested on 1-shot 4- and 12-way episodes only, the method validates the
+        # two cells these take their settings from, to the same settings and predictions.
+        told = make_method(name, seed=1).fit(sig, lab, cells=[(12, 1), (4, 1)])
+        assert told.test_cells_ == ((4, 1), (12, 1))
+        assert told.schedule_.settings == tuple(
+            c for c in m.schedule_.settings if (c.shot, c.way) in {(1, 5), (1, 12)}
+        )
+        for way in (4, 12):
+            ep = sample_episodes(lab, n_way=way, k_shot=1, n_query=2, episodes=6, seed=way)
+            assert np.array_equal(
+                told.predict_episodes(sig, ep.support, ep.query),
+                m.predict_episodes(sig, ep.support, ep.query),
+            )
         for setting in m.schedule_.settings:
             curves = [
                 c
@@ -184,3 +197,22 @@ def test_raw_signal_baselines_choose_their_settings_on_training_data(easy, monke
     assert kept >= curve[:, 1].max() - m.min_delta
     # patience=1: training stops at the first evaluation without a gain (or at the cap).
     assert m.plateaued_ or m.iterations_ >= m.max_iterations
+
+
+def test_used_cells_are_the_validated_cells_the_tested_ones_take_settings_from():
+    cells = [(k, n, 1) for k in (1, 3, 5) for n in (5, 12, 36)]
+    assert nets.used_cells(cells, None) == set(range(9))
+    # (way, shot): 1-shot 2..12-way -> the 1-shot 5- and 12-way cells; 36-way 4-shot ->
+    # the 3-shot 36-way cell (shot 4 ties 3 and 5: the smaller).
+    assert nets.used_cells(cells, [(w, 1) for w in range(2, 13)]) == {0, 1}
+    assert nets.used_cells(cells, [(36, 4)]) == {5}
+    assert nets.used_cells(cells, [(20, 5)]) == {7}  # 12-way: log(20/12) < log(36/20)
+
+
+@pytest.mark.parametrize("cells", [[(5, 0)], [(5,)], [("5", 1)], [(True, 1)], []])
+def test_bad_cells_are_refused_naming_cells(easy, cells):
+    data, _ = easy
+    with pytest.raises(ValueError, match="cells must"):
+        make_method("CNN", seed=0, **FAST["CNN"]).fit(
+            data.signals[:30], data.label[:30], cells=cells
+        )

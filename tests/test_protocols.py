@@ -29,7 +29,13 @@ class Spy(FewShotMethod):
 
     def _fit(self, signals, labels, features):
         Spy.log.append(
-            {"op": "fit", "labels": labels.copy(), "rows": _row_keys(signals), "seed": self.seed}
+            {
+                "op": "fit",
+                "labels": labels.copy(),
+                "rows": _row_keys(signals),
+                "seed": self.seed,
+                "cells": self.test_cells_,
+            }
         )
         self.D_ = 2  # what AFOP-ML exposes for selection records: a PVDF and an SG feature
         self.selected_ = np.array([0, 100])
@@ -86,6 +92,8 @@ def test_cross_shape_never_fits_on_test_shapes(data, spy):
         assert len(shapes_seen) == 8
         train_rows = _row_keys(data.signals[~np.isin(data.shape, list(test_shapes))])
         assert fit["rows"] <= train_rows
+        # The fit is told the protocol's design: 1-shot episodes of 2..12 ways.
+        assert fit["cells"] == tuple((way, 1) for way in range(2, 13))
     # Episodes are drawn only from the fold's test shapes.
     preds = [e for e in spy.log if e["op"] == "predict"]
     for fold in range(3):
