@@ -323,9 +323,9 @@ def _check_on_plate(spec: TrialSpec, x_ref: np.ndarray, y_ref: np.ndarray, radiu
     if np.abs(x_ref).max() > x_lim:
         span_mm = (x_ref.max() - x_ref.min()) * 1e3
         raise ValueError(
-            f"speed_mm_s={spec.speed_mm_s!r} makes the finger travel {span_mm:.0f} mm, beyond "
-            f"the {SPECIMEN.base_length_m * 1e3:.0f} mm plate; use a speed of at most about "
-            f"{(2 * x_lim) / (x_ref.max() - x_ref.min()) * spec.speed_mm_s:.0f} mm/s"
+            f"speed_mm_s={spec.speed_mm_s!r} makes the finger travel {span_mm:.0f} mm over "
+            f"{spec.shape}, beyond the {2 * x_lim * 1e3:.0f} mm of the "
+            f"{SPECIMEN.base_length_m * 1e3:.0f} mm plate the pad may cover; slide slower"
         )
 
 

@@ -98,3 +98,26 @@ def test_stress_records_round_trip_through_results_json(tmp_path):
     back = read_results(path, typed=True)
     assert back[0] == rec or dict(back[0]) == dict(rec)
     assert json.loads(path.read_text())[0]["family"] == "yaw"
+
+
+@pytest.mark.slow
+def test_the_full_suite_on_the_paper_preset_passes_its_own_checks():
+    """Every shipped family at every severity is valid on the paper preset (the full
+    suite's default): each physical severity plans a slide of every specimen that stays
+    on the plate, each sensor severity passes its family's check."""
+    base = clean_set_config(PRESETS["paper"], trials_per_class=30, seed=0)
+    check_values([families.get(n) for n in families.FAMILY_NAMES], [1, 2, 3, 4, 5], base)
+
+
+def test_a_speed_beyond_the_plate_is_refused_before_anything_is_simulated(tmp_path):
+    """A family's severity whose slides would run off the plate is one line naming the
+    family, the severity and the specimen."""
+    base = clean_set_config(PRESETS["paper"], trials_per_class=2, seed=0)
+
+    class Faster(families.get("speed").__class__):
+        levels = (2.35,) * 5  # 23.5 mm/s: within the simulator's range, off the plate
+
+    with pytest.raises(
+        ValueError, match=r"--families speed severity 1 .*beyond the .*slide slower"
+    ):
+        check_values([Faster()], [1], base)

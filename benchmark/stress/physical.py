@@ -85,7 +85,7 @@ class Speed(PhysicalFamily):
     summary = "sliding speed raised (simulated)"
     unit = "x nominal speed"
     nominal = 1.0
-    levels = (1.5, 1.75, 2.0, 2.2, 2.4)
+    levels = (1.4, 1.6, 1.8, 2.0, 2.2)
 
     def check(self, value: float, config: GenerationConfig | None) -> None:
         if value <= 0:
