@@ -60,9 +60,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--scheduler",
         metavar="ADDRESS",
-        help="Dask scheduler, e.g. tcp://host:8786; each task sizes its worker's thread pools "
-        "to --threads (default 1); start workers with OMP_WAIT_POLICY=PASSIVE "
-        "OPENBLAS_THREAD_TIMEOUT=4 in their environment so idle threads sleep",
+        help=SCHEDULER_HELP,
     )
     mode = p.add_mutually_exclusive_group()
     mode.add_argument(
@@ -238,14 +236,8 @@ def _generate(args: argparse.Namespace) -> int:
     config = config_from_args(args)
     executor, client, workers = None, None, args.workers
     if args.scheduler:
-        from dask.distributed import Client
-
-        try:
-            client = Client(args.scheduler)
-        except (OSError, ValueError, TimeoutError) as exc:
-            raise ValueError(f"--scheduler {args.scheduler}: cannot connect ({exc})") from None
-        executor = client.get_executor()
-        workers = workers or max(len(client.scheduler_info()["workers"]), 1)
+        client, executor, cluster_workers = connect_scheduler(args.scheduler)
+        workers = workers or cluster_workers
     start = time.perf_counter()
     try:
         with terminate_as_interrupt():  # `kill` stops at a chunk boundary, as Ctrl-C does
@@ -365,3 +357,24 @@ def _export(args: argparse.Namespace) -> int:
 
     print(f"wrote {export(args.path, args.format, args.out, overwrite=args.overwrite)}")
     return 0
+
+
+#: ``--scheduler``'s help, shared by every command that simulates on a Dask cluster.
+SCHEDULER_HELP = (
+    "Dask scheduler, e.g. tcp://host:8786; each task sizes its worker's thread pools to "
+    "--threads (default 1); start workers with OMP_WAIT_POLICY=PASSIVE "
+    "OPENBLAS_THREAD_TIMEOUT=4 in their environment so idle threads sleep"
+)
+
+
+def connect_scheduler(address: str) -> tuple[Any, Any, int]:
+    """``(client, executor, workers)`` of the Dask scheduler at ``address``: the client
+    (close it when done), its executor for :func:`synth.generate`, and the cluster's
+    worker count (at least 1); ValueError naming ``--scheduler`` when it cannot connect."""
+    from dask.distributed import Client
+
+    try:
+        client = Client(address)
+    except (OSError, ValueError, TimeoutError) as exc:
+        raise ValueError(f"--scheduler {address}: cannot connect ({exc})") from None
+    return client, client.get_executor(), max(len(client.scheduler_info()["workers"]), 1)

@@ -103,3 +103,37 @@ def test_physical_families_change_the_simulated_physics_as_they_say(seed):
     assert np.sign(shifts[5.0]) == np.sign(shifts[10.0]) and abs(shifts[5.0]) > 5e-3
     assert 1.6 < shifts[10.0] / shifts[5.0] < 2.2
     assert np.abs(tilted[10.0].signals[:2] - nominal["yaw"].signals[:2]).max() > 0.05
+
+
+@pytest.mark.slow
+def test_test_sets_simulated_on_a_dask_cluster_are_the_local_bits(tmp_path):
+    """``--scheduler``: the stress suite's test sets simulated on a Dask cluster's workers
+    hold the same bits as those simulated in this process."""
+    from dask.distributed import Client, LocalCluster
+
+    from benchmark.stress.families import get
+    from benchmark.stress.suite import clean_set_config, prepare_test_sets
+    from synth import load_dataset
+    from synth.presets import PRESETS
+
+    nominal = PRESETS["quick"].replace(shapes=("circle", "moon"), materials=("wood",))
+    base = clean_set_config(nominal, trials_per_class=2, seed=0)
+    yaw = [get("yaw")]
+    local = prepare_test_sets(base, yaw, [5], tmp_path / "local", progress=False, workers=None)
+    with (
+        LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster,
+        Client(cluster) as client,
+    ):
+        remote = prepare_test_sets(
+            base,
+            yaw,
+            [5],
+            tmp_path / "dask",
+            progress=False,
+            workers=2,
+            executor=client.get_executor(),
+        )
+    assert sorted(local) == sorted(remote) == ["clean", "yaw/5"]
+    for key in local:
+        a, b = load_dataset(local[key]), load_dataset(remote[key])
+        assert a.signals.tobytes() == b.signals.tobytes(), key

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from synth.dataset_cli import SCHEDULER_HELP, connect_scheduler
 from tactile_synth.interrupts import terminate_as_interrupt
 from tactile_synth.threads import HELP as THREADS_HELP
 from tactile_synth.validation import int_arg
@@ -95,6 +96,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--threads", type=int_arg, metavar="N", help=THREADS_HELP)
     p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="simulate the test sets on this Dask scheduler's workers, e.g. tcp://host:8786 "
+        "(the fits stay local); " + SCHEDULER_HELP.split("; ", 1)[1],
+    )
+    p.add_argument(
         "--overwrite",
         action="store_true",
         help="replace a non-empty DIR tactile-synth did not write, and evaluate again (the "
@@ -111,6 +118,9 @@ def _stress(args: argparse.Namespace) -> int:
 
     default = QUICK_METHODS if args.quick else METHOD_NAMES
     options = check_methods_arg(args.methods, args.method_option, default)
+    client, executor = None, None
+    if args.scheduler:
+        client, executor, _ = connect_scheduler(args.scheduler)
     try:
         with terminate_as_interrupt():
             run_stress(
@@ -126,6 +136,7 @@ def _stress(args: argparse.Namespace) -> int:
                 shot=args.shot,
                 seed=args.seed,
                 workers=args.workers,
+                executor=executor,
                 overwrite=args.overwrite,
                 options=options,
             )
@@ -137,5 +148,8 @@ def _stress(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 130
+    finally:
+        if client is not None:
+            client.close()
     print(f"report: {args.out}/stress.md")
     return 0

@@ -104,6 +104,7 @@ def run_stress(
     shot: int = 1,
     seed: int = 0,
     workers: int | None = None,
+    executor: Any = None,
     progress: bool = True,
     overwrite: bool = False,
     options: Any = None,
@@ -116,8 +117,9 @@ def run_stress(
     with ``stress_data``, read from that directory's existing stores (``benchmark
     stress``: nothing is simulated); every method fitted once on the nominal closed-set
     training half, with its constructor ``options`` (``--method-option``). Returns the
-    records it writes to ``out/results.json``. ``simulator`` replaces MuJoCo (tests
-    only)."""
+    records it writes to ``out/results.json``. ``executor``: where the test sets are
+    simulated (e.g. a Dask client's executor; default this process, or ``workers`` local
+    processes). ``simulator`` replaces MuJoCo (tests only)."""
     from synth import load_dataset
     from synth.presets import preset
     from tactile_synth import atomic
@@ -156,7 +158,12 @@ def run_stress(
             path = out / "data" / "nominal"
             log(progress, f"generating the nominal dataset into {path} (resumable)")
             generate_for_run(
-                nominal_config, path, progress=progress, workers=workers, simulator=simulator
+                nominal_config,
+                path,
+                progress=progress,
+                workers=workers,
+                simulator=simulator,
+                executor=executor,
             )
             data = path
         nominal = load_dataset(data)
@@ -171,6 +178,7 @@ def run_stress(
             simulator,
             seed,
             simulate=stress_data is None,
+            executor=executor,
         )
         records = _evaluate(
             nominal, test_sets, enrol, opts, tmp, seed, fit_workers, progress, options
@@ -199,6 +207,7 @@ def _test_sets(
     seed: int,
     *,
     simulate: bool = True,
+    executor: Any = None,
 ) -> tuple[dict[str, Dataset], np.ndarray | None]:
     """Every condition's test set in memory (the simulated ones loaded, the sensor
     families' faulted from the clean set), and the nominal trials the enrolled reading
@@ -230,6 +239,7 @@ def _test_sets(
             workers=workers,
             simulator=simulator,
             log=lambda msg: log(progress, msg),
+            executor=executor,
         )
         sets = {key: load_dataset(p) for key, p in paths.items()}
     else:

@@ -132,10 +132,13 @@ def prepare_test_sets(
     workers: int | None,
     simulator: Any = None,
     log: Any = None,
+    executor: Any = None,
 ) -> dict[str, Path]:
     """``{condition key: store}``: the clean test set and every physical family's test set
     at every severity, simulated into ``root`` (or completed there, or reused when
-    complete); a configuration equal to the clean one reuses the clean store."""
+    complete) in this process, ``workers`` local processes or on ``executor`` (e.g. a Dask
+    client's, :func:`synth.generate`); a configuration equal to the clean one reuses the
+    clean store."""
     from ..guards import generate_for_run
 
     say = log or (lambda msg: None)
@@ -151,7 +154,14 @@ def prepare_test_sets(
             continue
         path = root / key
         say(f"stress test set {key}: {config.n_trials} trials into {path} (resumable)")
-        generate_for_run(config, path, progress=progress, workers=workers, simulator=simulator)
+        generate_for_run(
+            config,
+            path,
+            progress=progress,
+            workers=workers,
+            simulator=simulator,
+            executor=executor,
+        )
         paths[key] = path
     return paths
 
