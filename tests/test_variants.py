@@ -136,9 +136,18 @@ def test_paper_afo_mlp_trains_nothing_at_fit_but_the_feature_optimisation(easy, 
     assert model.D_ == afop_fits[0].D_ and np.array_equal(model.selected_, afop_fits[0].selected_)
     # At fit, networks are trained only on validation episodes of the training trials.
     assert trainers and {n for n, _, _ in trainers} == {len(train)}
-    # Nothing learned survives but the feature optimisation and the schedule.
+    # Nothing learned survives but the feature optimisation and the schedule (beside the
+    # tested cells the caller told it, None here).
     learned = {k for k in vars(model) if k.endswith("_")}
-    assert learned == {"afop_", "D_", "selected_", "feature_dim_", "schedule_", "fitted_"}
+    assert model.test_cells_ is None
+    assert learned - {"test_cells_"} == {
+        "afop_",
+        "D_",
+        "selected_",
+        "feature_dim_",
+        "schedule_",
+        "fitted_",
+    }
     assert not any(isinstance(v, torch.Tensor) for v in vars(model).values())
     # At test time, every chunk's networks start from the seeded initialisation.
     trainers.clear()
