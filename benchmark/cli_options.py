@@ -29,6 +29,21 @@ def methods_help(default: str) -> str:
     )
 
 
+def add_method_options(parser: argparse.ArgumentParser, default: str) -> None:
+    """``--methods NAME ...`` (``default`` says what runs without it) and the repeatable
+    ``--method-option METHOD:NAME=VALUE``, as every command that fits methods takes them."""
+    parser.add_argument(
+        "--methods", nargs="+", default=None, metavar="NAME", help=methods_help(default)
+    )
+    parser.add_argument(
+        "--method-option",
+        action="append",
+        default=None,
+        metavar="METHOD:NAME=VALUE",
+        help=OPTION_HELP,
+    )
+
+
 def check_methods_arg(
     methods: list[str] | None, options: list[str] | None, default: Sequence[str]
 ) -> dict[str, dict[str, object]]:

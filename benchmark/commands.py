@@ -10,7 +10,7 @@ from tactile_synth.interrupts import terminate_as_interrupt
 from tactile_synth.threads import HELP as THREADS_HELP
 from tactile_synth.validation import int_arg
 
-from .cli_options import OPTION_HELP, again_command, check_methods_arg, methods_help
+from .cli_options import add_method_options, again_command, check_methods_arg
 from .stress import cli as stress_cli
 
 
@@ -47,20 +47,7 @@ def _register_benchmark(subparsers: argparse._SubParsersAction) -> None:
         "--perturbed", metavar="PATH", help="perturbation dataset (perturbation and all)"
     )
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
-    p.add_argument(
-        "--methods",
-        nargs="+",
-        default=None,
-        metavar="NAME",
-        help=methods_help("the paper's seven methods, then the variants"),
-    )
-    p.add_argument(
-        "--method-option",
-        action="append",
-        default=None,
-        metavar="METHOD:NAME=VALUE",
-        help=OPTION_HELP,
-    )
+    add_method_options(p, "the paper's seven methods, then the variants")
     p.add_argument("--episodes", type=int_arg, default=500, help="episodes per cell (default 500)")
     p.add_argument(
         "--seed", type=int_arg, default=0, help="seed of splits and episodes (default 0)"
@@ -177,21 +164,8 @@ def _register_run(subparsers: argparse._SubParsersAction) -> None:
         help="processes for generation and for the benchmark's fits, sharing the CPUs "
         "(default: generation in this process, fits in one process per usable CPU)",
     )
-    p.add_argument(
-        "--methods",
-        nargs="+",
-        default=None,
-        metavar="NAME",
-        help=methods_help(
-            "the paper's seven, then the variants, or three with --quick; must include AFOP-ML"
-        ),
-    )
-    p.add_argument(
-        "--method-option",
-        action="append",
-        default=None,
-        metavar="METHOD:NAME=VALUE",
-        help=OPTION_HELP,
+    add_method_options(
+        p, "the paper's seven, then the variants, or three with --quick; must include AFOP-ML"
     )
     p.add_argument(
         "--overwrite",

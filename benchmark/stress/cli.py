@@ -11,7 +11,7 @@ from tactile_synth.interrupts import terminate_as_interrupt
 from tactile_synth.threads import HELP as THREADS_HELP
 from tactile_synth.validation import int_arg
 
-from ..cli_options import OPTION_HELP, again_command, check_methods_arg, methods_help
+from ..cli_options import add_method_options, again_command, check_methods_arg
 from .families import FAMILY_NAMES, QUICK_FAMILIES
 
 FAMILIES_HELP = (
@@ -65,20 +65,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         action="store_true",
         help="four families, two severities, small datasets, three methods (a few minutes)",
     )
-    p.add_argument(
-        "--methods",
-        nargs="+",
-        default=None,
-        metavar="NAME",
-        help=methods_help("the paper's seven, or three with --quick"),
-    )
-    p.add_argument(
-        "--method-option",
-        action="append",
-        default=None,
-        metavar="METHOD:NAME=VALUE",
-        help=OPTION_HELP,
-    )
+    add_method_options(p, "the paper's seven, or three with --quick")
     add_suite_options(p)
     p.add_argument(
         "--episodes",
