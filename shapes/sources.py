@@ -25,29 +25,21 @@ and circles by their sagitta, ellipses and splines adaptively).
 
 from __future__ import annotations
 
-import importlib
-import importlib.util
 import math
-import sys
-import zlib
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from tactile_synth import plugins
+from tactile_synth.plugins import one_line
+
 #: Largest gap between an outline's ends, or between two DXF edges, still taken as
 #: joined (0.1 um: far below any feature, far above rounding in a file's coordinates).
 GAP_TOL_M = 1e-7
 #: Largest |z| of a face taken as lying in the plane z = 0.
 PLANE_TOL_M = 1e-9
-
-
-def one_line(exc: BaseException) -> str:
-    """``"TypeName: message"`` of an exception on one line (messages from user code may
-    hold newlines)."""
-    text = " ".join(str(exc).split())
-    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 
 def _gap_mm(a: np.ndarray, b: np.ndarray, unit_m: float) -> str:
@@ -317,72 +309,30 @@ def function_outline(
 
 def import_function(spec: str, base_dir: Path) -> Callable[..., Any]:
     """The function behind ``"file.py:name"`` (a path relative to ``base_dir``) or
-    ``"package.module:name"`` (importable from ``sys.path``, else from ``base_dir``)."""
+    ``"package.module:name"`` (importable from ``sys.path``, else from ``base_dir``),
+    loaded by the project's one plug-in loader; any failure is one ``ValueError``."""
     module, sep, attr = spec.rpartition(":")
     if not sep or not module or not all(p.isidentifier() for p in attr.split(".")):
         raise ValueError(
             f"function must be 'file.py:function' or 'package.module:function'; got {spec!r}"
         )
-    if module.endswith(".py"):
-        path = Path(module)
-        mod = _import_file(spec, path if path.is_absolute() else base_dir / path)
-    else:
-        mod = _import_module(spec, module, base_dir)
+    who = f"function {spec!r}"
+    try:
+        mod = plugins.import_module(
+            spec, module, "function", prefix="specimen", search_dir=base_dir, who=who
+        )
+    except ValueError:
+        raise
+    except Exception as exc:  # the user's module raised while it ran
+        raise ValueError(f"{who}: importing {module} failed: {one_line(exc)}") from None
     obj: Any = mod
     for part in attr.split("."):
         if not hasattr(obj, part):
-            raise ValueError(f"function {spec!r}: {module} has no attribute {attr!r}")
+            raise ValueError(f"{who}: {module} has no attribute {attr!r}")
         obj = getattr(obj, part)
     if not callable(obj):
-        raise ValueError(f"function {spec!r}: {attr} is not callable")
+        raise ValueError(f"{who}: {attr} is not callable")
     return obj
-
-
-def _import_file(spec: str, path: Path) -> Any:
-    if not path.is_file():
-        raise ValueError(f"function {spec!r}: file {path} does not exist")
-    resolved = str(path.resolve())
-    name = f"_tactile_synth_specimen_{path.stem}_{zlib.crc32(resolved.encode()):08x}"
-    if name in sys.modules:
-        return sys.modules[name]
-    loader_spec = importlib.util.spec_from_file_location(name, resolved)
-    if loader_spec is None or loader_spec.loader is None:
-        raise ValueError(f"function {spec!r}: cannot load {path} as a Python module")
-    mod = importlib.util.module_from_spec(loader_spec)
-    sys.modules[name] = mod  # before executing: dataclasses and typing look it up
-    try:
-        loader_spec.loader.exec_module(mod)
-    except Exception as exc:
-        del sys.modules[name]
-        raise ValueError(f"function {spec!r}: importing {path} failed: {one_line(exc)}") from None
-    return mod
-
-
-def _import_module(spec: str, module: str, base_dir: Path) -> Any:
-    mod = _try_import(spec, module)
-    if mod is None:
-        # Then beside the experiment file (searched last: installed modules win).
-        where = str(base_dir.resolve())
-        sys.path.append(where)
-        try:
-            mod = _try_import(spec, module)
-        finally:
-            sys.path.remove(where)
-    if mod is None:
-        raise ValueError(f"function {spec!r}: no module named {module!r}")
-    return mod
-
-
-def _try_import(spec: str, module: str) -> Any:
-    """The imported module, or None if it does not exist (a failure inside it raises)."""
-    try:
-        return importlib.import_module(module)
-    except ModuleNotFoundError as exc:
-        if exc.name is not None and (module == exc.name or module.startswith(exc.name + ".")):
-            return None
-        raise ValueError(f"function {spec!r}: importing {module} failed: {one_line(exc)}") from None
-    except Exception as exc:
-        raise ValueError(f"function {spec!r}: importing {module} failed: {one_line(exc)}") from None
 
 
 def _check_file(path: Path, kind: str) -> None:

@@ -39,53 +39,84 @@ def entry_points(group: str, builtins: Mapping[str, str] = {}) -> dict[str, str]
     return {ep.name: ep.value for ep in eps if ep.name not in builtins}
 
 
-def _try_import(spec: str, module: str, arg: str) -> ModuleType | None:
+def one_line(exc: BaseException) -> str:
+    """``"TypeName: message"`` of an exception on one line (messages from user code may
+    hold newlines)."""
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def _try_import(who: str, module: str) -> ModuleType | None:
     """The imported module, or None if it does not exist (a failure inside it raises)."""
     try:
         return importlib.import_module(module)
     except ModuleNotFoundError as exc:
         if exc.name is not None and (module == exc.name or module.startswith(exc.name + ".")):
             return None
-        raise ValueError(f"{arg}: {spec!r}: importing {module} failed: {exc}") from exc
+        raise ValueError(f"{who}: importing {module} failed: {one_line(exc)}") from exc
     except ImportError as exc:
-        raise ValueError(f"{arg}: {spec!r}: importing {module} failed: {exc}") from exc
+        raise ValueError(f"{who}: importing {module} failed: {one_line(exc)}") from exc
 
 
-def _import_file(spec: str, path: Path, arg: str, prefix: str) -> ModuleType:
+def _import_file(who: str, path: Path, prefix: str) -> ModuleType:
     if not path.is_file():
-        raise ValueError(f"{arg}: {spec!r}: file {path} does not exist")
+        raise ValueError(f"{who}: file {path} does not exist")
     resolved = str(path.resolve())
     name = f"_tactile_synth_{prefix}_{path.stem}_{zlib.crc32(resolved.encode()):08x}"
     if name in sys.modules:
         return sys.modules[name]
     loader_spec = importlib.util.spec_from_file_location(name, resolved)
     if loader_spec is None or loader_spec.loader is None:
-        raise ValueError(f"{arg}: {spec!r}: cannot load {path} as a Python module")
+        raise ValueError(f"{who}: cannot load {path} as a Python module")
     mod = importlib.util.module_from_spec(loader_spec)
     sys.modules[name] = mod  # before executing: dataclasses and typing look it up
     try:
         loader_spec.loader.exec_module(mod)
     except ImportError as exc:
         del sys.modules[name]
-        raise ValueError(f"{arg}: {spec!r}: importing {path} failed: {exc}") from exc
+        raise ValueError(f"{who}: importing {path} failed: {one_line(exc)}") from exc
     except BaseException:
         del sys.modules[name]
         raise
     return mod
 
 
-def import_module(spec: str, module: str, arg: str, *, prefix: str = "plugin") -> ModuleType:
+def import_module(
+    spec: str,
+    module: str,
+    arg: str,
+    *,
+    prefix: str = "plugin",
+    search_dir: Path | None = None,
+    who: str | None = None,
+) -> ModuleType:
     """The module of a ``module:attr`` spec: a ``.py`` file path, or a module importable
     from ``sys.path`` or else from the current directory (as ``python -m`` would find
-    it). ``prefix`` names the kind in the private module name a file is loaded under."""
+    it). ``prefix`` names the kind in the private module name a file is loaded under.
+
+    ``search_dir`` replaces the current directory: a relative file path is taken from it,
+    and a module not found on ``sys.path`` is looked up there (for that import only).
+    Errors are ``ValueError`` starting with ``who`` (default ``"{arg}: {spec!r}"``); an
+    exception other than an import error raised while the module runs is passed on."""
+    who = who or f"{arg}: {spec!r}"
     if module.endswith(".py"):
-        return _import_file(spec, Path(module), arg, prefix)
-    mod = _try_import(spec, module, arg)
-    if mod is None and os.getcwd() not in sys.path:
+        path = Path(module)
+        if search_dir is not None and not path.is_absolute():
+            path = search_dir / path
+        return _import_file(who, path, prefix)
+    mod = _try_import(who, module)
+    if mod is None and search_dir is not None:
+        where = str(Path(search_dir).resolve())
+        sys.path.append(where)  # searched last: installed modules win
+        try:
+            mod = _try_import(who, module)
+        finally:
+            sys.path.remove(where)
+    elif mod is None and os.getcwd() not in sys.path:
         sys.path.append(os.getcwd())  # searched last: installed modules win
-        mod = _try_import(spec, module, arg)
+        mod = _try_import(who, module)
     if mod is None:
-        raise ValueError(f"{arg}: {spec!r}: no module named {module!r}")
+        raise ValueError(f"{who}: no module named {module!r}")
     return mod
 
 
