@@ -96,19 +96,9 @@ def _benchmark(args: argparse.Namespace) -> int:
         with terminate_as_interrupt():
             run_stress(
                 args.out,
-                data=args.data,
                 stress_data=args.stress_data,
-                methods=args.methods,
-                families=args.families,
-                severities=args.severities,
-                episodes=args.episodes,
-                reference=args.reference,
-                way=args.way,
-                shot=args.shot,
-                seed=args.seed,
-                workers=args.workers,
-                overwrite=args.overwrite,
                 options=options,
+                **stress_cli.suite_arguments(args),
             )
         print(f"wrote {args.out}/results.json and {args.out}/stress.md")
         return 0

@@ -43,7 +43,6 @@ import difflib
 import json
 import math
 import os
-import tomllib
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -52,6 +51,7 @@ from shapes import sources
 from shapes.dims import SPECIMEN
 from shapes.outlines import SHAPE_NAMES
 from shapes.specimen import NAME_PATTERN, NAME_RULE, Specimen, SpecimenError, SpecimenLike
+from tactile_synth import validation
 
 #: The keys that give a specimen its outline; a table has exactly one (or none, for a
 #: built-in shape).
@@ -64,22 +64,9 @@ KEYS = ("name", *SOURCE_KEYS, *SOURCE_OPTIONS, *COMMON_KEYS)
 
 
 def read_toml(path: str | os.PathLike) -> dict[str, Any]:
-    """The parsed TOML file; a one-line ``ValueError`` naming the file if it is missing
-    or not TOML."""
-    file = str(path)
-    try:
-        with open(path, "rb") as fh:
-            return tomllib.load(fh)
-    except FileNotFoundError:
-        raise ValueError(f"{file}: no such file") from None
-    except IsADirectoryError:
-        raise ValueError(f"{file}: is a directory, not an experiment file") from None
-    except OSError as exc:
-        raise ValueError(f"{file}: cannot be read ({exc.strerror})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"{file}: not valid TOML: {' '.join(str(exc).split())}") from None
-    except UnicodeDecodeError:
-        raise ValueError(f"{file}: not valid TOML: not UTF-8 text") from None
+    """The parsed experiment file; a one-line ``ValueError`` naming the file if it is
+    missing or not TOML."""
+    return validation.read_toml(path, "an experiment file")
 
 
 def load_specimens(path: str | os.PathLike) -> tuple[SpecimenLike, ...]:

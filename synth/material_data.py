@@ -47,7 +47,7 @@ from importlib import resources
 from numbers import Real
 from typing import Any
 
-from tactile_synth.validation import check_choice
+from tactile_synth.validation import check_choice, read_toml
 
 from .materials import MATERIALS, FrictionLaw, Material, Periodic, Texture
 
@@ -257,7 +257,7 @@ def load_materials(path: str | os.PathLike) -> dict[str, Material]:
     file is missing, not TOML, holds other top-level keys or a bad table.
     """
     file = str(path)
-    data = _read_toml(path)
+    data = read_toml(path, "a materials file")
     _check_keys(file, "top-level key", data, ("material",))
     if "material" not in data:
         raise ValueError(f"{file}: no [[material]] tables (see docs/materials.md)")
@@ -339,23 +339,6 @@ def _parse(
             )
         materials[name] = material
     return materials
-
-
-def _read_toml(path: str | os.PathLike) -> dict[str, Any]:
-    file = str(path)
-    try:
-        with open(path, "rb") as fh:
-            return tomllib.load(fh)
-    except FileNotFoundError:
-        raise ValueError(f"{file}: no such file") from None
-    except IsADirectoryError:
-        raise ValueError(f"{file}: is a directory, not a materials file") from None
-    except OSError as exc:
-        raise ValueError(f"{file}: cannot be read ({exc.strerror})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"{file}: not valid TOML: {' '.join(str(exc).split())}") from None
-    except UnicodeDecodeError:
-        raise ValueError(f"{file}: not valid TOML: not UTF-8 text") from None
 
 
 def _where(file: str, entry: int | None, table: object) -> str:

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import difflib
 import math
+import os
+import tomllib
 from collections.abc import Iterable
 from numbers import Integral, Real
 from typing import Any
@@ -94,3 +96,23 @@ def _arg(text: str, kind: type[int] | type[float]) -> Any:
         if "_" not in text:  # argparse's own wording for type=int / type=float
             raise argparse.ArgumentTypeError(f"invalid {kind.__name__} value: {text!r}") from None
         raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def read_toml(path: str | os.PathLike, kind: str) -> dict[str, Any]:
+    """The parsed TOML file at ``path``; a one-line ``ValueError`` naming the file if it is
+    missing, unreadable or not TOML (``kind``, e.g. ``"an experiment file"``, says what a
+    directory given in its place is not)."""
+    file = str(path)
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError:
+        raise ValueError(f"{file}: no such file") from None
+    except IsADirectoryError:
+        raise ValueError(f"{file}: is a directory, not {kind}") from None
+    except OSError as exc:
+        raise ValueError(f"{file}: cannot be read ({exc.strerror})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"{file}: not valid TOML: {' '.join(str(exc).split())}") from None
+    except UnicodeDecodeError:
+        raise ValueError(f"{file}: not valid TOML: not UTF-8 text") from None

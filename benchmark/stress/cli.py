@@ -22,6 +22,14 @@ FAMILIES_HELP = (
 )
 
 
+def suite_arguments(args: argparse.Namespace) -> dict[str, object]:
+    """The :func:`~benchmark.stress.command.run_stress` arguments ``stress`` and
+    ``benchmark stress`` both take from their command line."""
+    names = ("data", "methods", "families", "severities", "episodes", "reference", "way")
+    names += ("shot", "seed", "workers", "overwrite")
+    return {name: getattr(args, name) for name in names}
+
+
 def add_suite_options(p: argparse.ArgumentParser, *, prefix: str = "") -> None:
     """The suite's own options (families, severities, cell, reference), for ``stress``
     and ``benchmark stress``; ``prefix`` marks them as the latter's in the help."""
@@ -112,20 +120,10 @@ def _stress(args: argparse.Namespace) -> int:
         with terminate_as_interrupt():
             run_stress(
                 args.out,
-                data=args.data,
                 quick=args.quick,
-                methods=args.methods,
-                families=args.families,
-                severities=args.severities,
-                episodes=args.episodes,
-                reference=args.reference,
-                way=args.way,
-                shot=args.shot,
-                seed=args.seed,
-                workers=args.workers,
                 executor=executor,
-                overwrite=args.overwrite,
                 options=options,
+                **suite_arguments(args),
             )
     except KeyboardInterrupt:
         again = again_command(args, ["stress", "--out", str(args.out)])
