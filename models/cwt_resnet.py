@@ -418,9 +418,7 @@ class CWTResNetML(FewShotMethod):
         )
 
     def _images(self, signals: np.ndarray) -> torch.Tensor:
-        return self._cache.get(
-            signals, lambda s: torch.as_tensor(scalograms(self.scaler_.transform(s)))
-        )
+        return torch.as_tensor(scalograms(self.scaler_.transform(signals)))
 
     def _network(self) -> nn.Module:
         """A new network at its starting weights (seeded; the user's weights if given)."""
@@ -474,7 +472,6 @@ class CWTResNetML(FewShotMethod):
         return net, curve
 
     def _fit(self, signals: np.ndarray, labels: np.ndarray, features: np.ndarray | None) -> None:
-        self._cache = PoolCache()
         self.scaler_ = ChannelScaler().fit(signals)
         images = self._images(signals)
         # 1. The epoch count: trained on three quarters of the training classes, scored on
@@ -500,6 +497,7 @@ class CWTResNetML(FewShotMethod):
         self.net_, _ = self._train(images, labels, self.epochs_)
         self.embed_scaler_ = FeatureScaler().fit(_embed(self.net_, images))
         self.feature_dim_ = ARCHS[self.arch]
+        self._embeddings = PoolCache()
 
     def _predict(
         self,
@@ -508,7 +506,12 @@ class CWTResNetML(FewShotMethod):
         query: np.ndarray,
         features: np.ndarray | None,
     ) -> np.ndarray:
-        emb = self.embed_scaler_.transform(_embed(self.net_, self._images(signals)))
+        # Every cell of a table is labelled on the same pool: its embeddings are computed
+        # once per pool (the scalograms are only needed on the way).
+        emb = self._embeddings.get(
+            signals,
+            lambda s: self.embed_scaler_.transform(_embed(self.net_, self._images(s))),
+        )
         return adapt_cosine_head(
             emb, support, query, steps=self.steps, lr=self.head_lr, lam=self.lam, alpha=self.alpha
         )

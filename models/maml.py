@@ -64,6 +64,7 @@ from .nets import (
     PoolCache,
     accuracy,
     cnn_forward,
+    embed_cnn,
     episode_inputs,
     episodes_per_chunk,
     holdout_classes,
@@ -127,11 +128,24 @@ def _adapt(
     if 0 in marks:
         label()
     for step in range(1, steps + 1):
-        logits = cnn_forward(xs, fast, LAYERS)
-        loss = F.cross_entropy(logits.reshape(-1, n_way), tgt) * e
-        grads = torch.autograd.grad(loss, fast)
-        with torch.no_grad():
-            fast = [p - lr * g for p, g in zip(fast, grads)]  # noqa: B905
+        if step == 1:
+            # The head starts at zero, so the first step's gradient reaches no weight below
+            # it (d loss / d embedding = (p - y) W_head^T = 0) and leaves the body as it
+            # is: only the head's gradient is taken, from the body's embedding.
+            with torch.no_grad():
+                emb = embed_cnn(xs, fast, LAYERS)
+            w_out, b_out = fast[-2:]
+            logits = torch.einsum("rec,eco->reo", emb, w_out) + b_out[None]
+            loss = F.cross_entropy(logits.reshape(-1, n_way), tgt) * e
+            grads = torch.autograd.grad(loss, [w_out, b_out])
+            with torch.no_grad():
+                fast = [*fast[:-2], *(p - lr * g for p, g in zip(fast[-2:], grads))]  # noqa: B905
+        else:
+            logits = cnn_forward(xs, fast, LAYERS)
+            loss = F.cross_entropy(logits.reshape(-1, n_way), tgt) * e
+            grads = torch.autograd.grad(loss, fast)
+            with torch.no_grad():
+                fast = [p - lr * g for p, g in zip(fast, grads)]  # noqa: B905
         for p in fast:
             p.requires_grad_(True)
         if step in marks:

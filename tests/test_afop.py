@@ -150,3 +150,32 @@ def test_single_episode_latency_adapts_each_episode_alone(separable):
     np.testing.assert_array_equal(alone[0], r.predictions[2])
     # Not measured unless asked for.
     assert evaluate(model, data.signals[test], batch, features=feats[test]).latency_episodes == 0
+
+
+def test_single_episode_latency_prepares_every_timed_episode_anew():
+    # A method that keeps the prepared input of the last pool must not find a timed
+    # episode's pool already prepared: each timed call is a new episode of new trials.
+    from benchmark.evaluate import single_episode_latency
+    from models.base import FewShotMethod
+    from models.nets import PoolCache
+
+    class Counting(FewShotMethod):
+        name = "counting"
+
+        def _fit(self, signals, labels, features):
+            self._cache, self.prepared = PoolCache(), 0
+
+        def _prepare(self, signals):
+            self.prepared += 1
+            return signals
+
+        def _predict(self, signals, support, query, features):
+            self._cache.get(signals, self._prepare)
+            return np.zeros(query.shape, dtype=np.int64)
+
+    labels = np.repeat(np.arange(6), 6)
+    signals = np.random.default_rng(0).standard_normal((labels.size, 4, 50))
+    model = Counting().fit(signals, labels, features=np.zeros((labels.size, 3)))
+    batch = sample_episodes(labels, n_way=3, k_shot=1, n_query=2, episodes=5, seed=0)
+    single_episode_latency(model, signals, batch, np.zeros((labels.size, 3)), 4)
+    assert model.prepared == 1 + 2 * 4  # the untimed call, then every timed one

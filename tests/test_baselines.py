@@ -216,3 +216,29 @@ def test_bad_cells_are_refused_naming_cells(easy, cells):
         make_method("CNN", seed=0, **FAST["CNN"]).fit(
             data.signals[:30], data.label[:30], cells=cells
         )
+
+
+def test_maml_first_inner_step_moves_the_zero_head_alone_as_the_full_gradient_does():
+    # The head starts at zero, so the full gradient of the first step is zero on every body
+    # weight: the shortcut that takes the head's gradient alone must give the same weights.
+    import torch
+    import torch.nn.functional as F
+
+    gen = torch.Generator().manual_seed(5)
+    x = torch.randn(40, 4, 1000, generator=gen)
+    body = nets.init_cnn(maml.LAYERS, 5, gen, copies=1)
+    labels = np.repeat(np.arange(8), 5)
+    batch = sample_episodes(labels, n_way=4, k_shot=2, n_query=1, episodes=3, seed=1)
+    fast, _ = maml._adapt(x, batch.support, body, 1, 0.1)
+
+    e, n_way, k_shot = batch.support.shape
+    full = [p.detach().requires_grad_(True) for p in maml._zero_head(body, e, n_way)]
+    xs = nets.episode_inputs(x, batch.support.reshape(e, -1))
+    target = torch.arange(n_way).repeat_interleave(k_shot)[:, None].expand(-1, e).reshape(-1)
+    logits = nets.cnn_forward(xs, full, maml.LAYERS)
+    loss = F.cross_entropy(logits.reshape(-1, n_way), target) * e
+    grads = torch.autograd.grad(loss, full)
+    assert all(torch.count_nonzero(g) == 0 for g in grads[:-2])
+    assert torch.count_nonzero(grads[-2]) > 0
+    for p, g, got in zip(full, grads, fast, strict=True):
+        torch.testing.assert_close(got, p - 0.1 * g, rtol=0, atol=0)
