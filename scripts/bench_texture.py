@@ -10,7 +10,10 @@ such run. On it, the films' RMS in the texture band (20-400 Hz, a 4th-order
 Butterworth band-pass run forwards and backwards) is averaged over the two films and
 the seeds. Prints one row per material and speed, then the two checks of the texture
 targets: wood's RMS at least 3 times aluminium's at 10 mm/s, and the RMS rising from
-the slowest to the fastest speed on every material.
+the slowest to the fastest speed on every material. Then the same band's RMS of the
+texture's push on the skin (the tangential force ``-slope * F_n`` the simulated contact
+feels, ``Trial.truth["texture_push_n"]``) on the same segments, and the films' RMS per
+unit of it: the input the surface gives and what the finger's mechanics make of it.
 """
 
 from __future__ import annotations
@@ -64,6 +67,20 @@ def measure(
 ) -> dict[str, dict[float, float]]:
     """Films' mean texture-band RMS (volts) on the steady segment, per material and
     speed, averaged over the two films and ``seeds`` trials."""
+    return measure_with_push(config, speeds, seeds, force_n, margin_m, shape)[0]
+
+
+def measure_with_push(
+    config: synth.SynthConfig,
+    speeds: list[float],
+    seeds: int,
+    force_n: float,
+    margin_m: float,
+    shape: str = "square",
+) -> tuple[dict[str, dict[float, float]], dict[str, dict[float, float]]]:
+    """``(films, push)``: the films' mean texture-band RMS (volts) as :func:`measure`, and
+    the texture push's texture-band RMS (newtons) on the same segments, averaged over
+    ``seeds`` trials."""
     specs = [
         TrialSpec(shape, m, force_n=force_n, speed_mm_s=v, seed=s)
         for m in synth.MATERIAL_NAMES
@@ -71,14 +88,21 @@ def measure(
         for s in range(seeds)
     ]
     trials = synth.simulate_batch(specs, config=config)
-    out: dict[str, dict[float, list[float]]] = {}
+    films: dict[str, dict[float, list[float]]] = {}
+    push: dict[str, dict[float, list[float]]] = {}
     for t in trials:
         seg = steady_segment(t, margin_m)
         if seg is None:
             raise SystemExit(f"bench_texture: no steady segment in {t.spec}")
         rms = np.mean([band_rms(t.signals[c, seg].astype(float)) for c in (0, 1)])
-        out.setdefault(t.spec.material, {}).setdefault(t.spec.speed_mm_s, []).append(rms)
-    return {m: {v: float(np.mean(r)) for v, r in by.items()} for m, by in out.items()}
+        films.setdefault(t.spec.material, {}).setdefault(t.spec.speed_mm_s, []).append(rms)
+        felt = band_rms(np.asarray(t.truth["texture_push_n"][seg], dtype=float))
+        push.setdefault(t.spec.material, {}).setdefault(t.spec.speed_mm_s, []).append(felt)
+
+    def means(table: dict[str, dict[float, list[float]]]) -> dict[str, dict[float, float]]:
+        return {m: {v: float(np.mean(r)) for v, r in by.items()} for m, by in table.items()}
+
+    return means(films), means(push)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -108,7 +132,7 @@ def main(argv: list[str] | None = None) -> int:
         except CalibrationError as exc:
             raise SystemExit(str(exc)) from None
     speeds = sorted(args.speeds)
-    table = measure(config, speeds, args.seeds, args.force, args.margin_mm * 1e-3)
+    table, push = measure_with_push(config, speeds, args.seeds, args.force, args.margin_mm * 1e-3)
     print(f"films' {BAND_HZ[0]:g}-{BAND_HZ[1]:g} Hz RMS (mV) on the square's steady top, ")
     print(f"{args.force:g} N, mean of 2 films x {args.seeds} seeds")
     print("material    " + "".join(f"{v:>9g} mm/s" for v in speeds))
@@ -122,9 +146,22 @@ def main(argv: list[str] | None = None) -> int:
         f"rises from {speeds[0]:g} to {speeds[-1]:g} mm/s: "
         + ", ".join(f"{m} {'yes' if r else 'NO'}" for m, r in rising.items())
     )
+    print(f"texture push on the skin, {BAND_HZ[0]:g}-{BAND_HZ[1]:g} Hz RMS (mN), same segments")
+    print("material    " + "".join(f"{v:>9g} mm/s" for v in speeds))
+    for m in synth.MATERIAL_NAMES:
+        print(f"{m:<12}" + "".join(f"{push[m][v] * 1e3:>14.3f}" for v in speeds))
+    print("films per unit of push (mV/mN)")
+    for m in synth.MATERIAL_NAMES:
+        print(f"{m:<12}" + "".join(f"{table[m][v] / push[m][v]:>14.3f}" for v in speeds))
     if args.json:
         with open(args.json, "w") as fh:
-            json.dump({m: {str(v): r for v, r in by.items()} for m, by in table.items()}, fh)
+            json.dump(
+                {
+                    "films_v": {m: {str(v): r for v, r in by.items()} for m, by in table.items()},
+                    "push_n": {m: {str(v): r for v, r in by.items()} for m, by in push.items()},
+                },
+                fh,
+            )
     return 0
 
 

@@ -130,3 +130,21 @@ def test_a_number_with_an_underscore_is_refused_naming_the_option(name, argv, tm
     last = proc.stderr.splitlines()[-1]  # argparse's usage, then its error line
     assert f"error: argument {option}: '1_000' is not a" in last
     assert "write '1000'" in last
+
+
+def test_bench_texture_reports_the_films_and_the_push_they_read(monkeypatch, tmp_path, capsys):
+    # One trial per material: the push's table comes from the same steady segments as the
+    # films', and wood's rough surface pushes the skin more than milled aluminium's.
+    main = _script("bench_texture", monkeypatch).main
+    out = tmp_path / "texture.json"
+    assert main(["--seeds", "1", "--speeds", "10", "--json", str(out)]) == 0
+    import json
+
+    table = json.loads(out.read_text())
+    assert set(table) == {"films_v", "push_n"}
+    for name in ("films_v", "push_n"):
+        assert set(table[name]) == {"resin", "wood", "aluminum"}
+        assert all(v["10.0"] > 0 for v in table[name].values())
+    assert table["push_n"]["wood"]["10.0"] > 1.5 * table["push_n"]["aluminum"]["10.0"]
+    printed = capsys.readouterr().out
+    assert "texture push on the skin" in printed and "films per unit of push" in printed
