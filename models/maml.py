@@ -69,6 +69,7 @@ from .nets import (
     episodes_per_chunk,
     holdout_classes,
     init_cnn,
+    linear_head,
     resample,
     validation_episodes,
 )
@@ -134,18 +135,16 @@ def _adapt(
             # is: only the head's gradient is taken, from the body's embedding.
             with torch.no_grad():
                 emb = embed_cnn(xs, fast, LAYERS)
-            w_out, b_out = fast[-2:]
-            logits = torch.einsum("rec,eco->reo", emb, w_out) + b_out[None]
-            loss = F.cross_entropy(logits.reshape(-1, n_way), tgt) * e
-            grads = torch.autograd.grad(loss, [w_out, b_out])
-            with torch.no_grad():
-                fast = [*fast[:-2], *(p - lr * g for p, g in zip(fast[-2:], grads))]  # noqa: B905
+            trained = fast[-2:]
+            logits = linear_head(emb, *trained)
         else:
+            trained = fast
             logits = cnn_forward(xs, fast, LAYERS)
-            loss = F.cross_entropy(logits.reshape(-1, n_way), tgt) * e
-            grads = torch.autograd.grad(loss, fast)
-            with torch.no_grad():
-                fast = [p - lr * g for p, g in zip(fast, grads)]  # noqa: B905
+        loss = F.cross_entropy(logits.reshape(-1, n_way), tgt) * e
+        grads = torch.autograd.grad(loss, trained)
+        with torch.no_grad():
+            stepped = [p - lr * g for p, g in zip(trained, grads)]  # noqa: B905
+        fast = [*fast[: len(fast) - len(trained)], *stepped]
         for p in fast:
             p.requires_grad_(True)
         if step in marks:

@@ -129,8 +129,13 @@ def cnn_forward(
     with ``copies = E``. Returns logits ``(R, E, n_out)``. Episode e's examples only meet
     episode e's weights (grouped convolutions, ``groups = E``).
     """
-    w_out, b_out = params[-2], params[-1]
-    return torch.einsum("rec,eco->reo", embed_cnn(x, params, layers), w_out) + b_out[None]
+    return linear_head(embed_cnn(x, params, layers), params[-2], params[-1])
+
+
+def linear_head(emb: torch.Tensor, w_out: torch.Tensor, b_out: torch.Tensor) -> torch.Tensor:
+    """Per-episode linear heads: embeddings ``(R, E, c)``, weights ``(E, c, n)`` and biases
+    ``(E, n)`` -> logits ``(R, E, n)``."""
+    return torch.einsum("rec,eco->reo", emb, w_out) + b_out[None]
 
 
 def embed_cnn(

@@ -64,23 +64,10 @@ def measure(
     force_n: float,
     margin_m: float,
     shape: str = "square",
-) -> dict[str, dict[float, float]]:
-    """Films' mean texture-band RMS (volts) on the steady segment, per material and
-    speed, averaged over the two films and ``seeds`` trials."""
-    return measure_with_push(config, speeds, seeds, force_n, margin_m, shape)[0]
-
-
-def measure_with_push(
-    config: synth.SynthConfig,
-    speeds: list[float],
-    seeds: int,
-    force_n: float,
-    margin_m: float,
-    shape: str = "square",
 ) -> tuple[dict[str, dict[float, float]], dict[str, dict[float, float]]]:
-    """``(films, push)``: the films' mean texture-band RMS (volts) as :func:`measure`, and
-    the texture push's texture-band RMS (newtons) on the same segments, averaged over
-    ``seeds`` trials."""
+    """``(films, push)`` per material and speed on the steady segments: the films' mean
+    texture-band RMS (volts, averaged over the two films and ``seeds`` trials) and the
+    texture push's (newtons, averaged over the trials)."""
     specs = [
         TrialSpec(shape, m, force_n=force_n, speed_mm_s=v, seed=s)
         for m in synth.MATERIAL_NAMES
@@ -132,7 +119,7 @@ def main(argv: list[str] | None = None) -> int:
         except CalibrationError as exc:
             raise SystemExit(str(exc)) from None
     speeds = sorted(args.speeds)
-    table, push = measure_with_push(config, speeds, args.seeds, args.force, args.margin_mm * 1e-3)
+    table, push = measure(config, speeds, args.seeds, args.force, args.margin_mm * 1e-3)
     print(f"films' {BAND_HZ[0]:g}-{BAND_HZ[1]:g} Hz RMS (mV) on the square's steady top, ")
     print(f"{args.force:g} N, mean of 2 films x {args.seeds} seeds")
     print("material    " + "".join(f"{v:>9g} mm/s" for v in speeds))
