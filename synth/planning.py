@@ -2,22 +2,13 @@
 meets the raised outline where the record needs it, and build its MuJoCo model, initial
 state and closed-loop inputs (:class:`Plan`), before anything is simulated.
 
-A trial's timeline (physics step ``Motion.timestep_s``):
-
-1. load: the finger rests on the plate, clear of the raised outline, pressed with the
-   target force (``settle_s``);
-2. slide: the robot accelerates to the target speed along the path (``ramp_s``) and holds
-   it; the start point is placed so that the skin first touches the raised outline
-   ``approach_s`` after the slide starts (longer where a fast slide would otherwise
-   start its window before the robot is at speed);
-3. window: the path is planned so that the contact phase's middle falls
-   :data:`WINDOW_MARGIN_S` before the simulated record's end at the latest, whatever the
-   pad's lag; :mod:`synth.recording` cuts the window from the recorded signals.
-
-All per-trial randomness derives from ``SeedSequence([trial seed, class key])`` (the key:
-:func:`synth.trial.class_key`, the index into ``CLASS_NAMES`` for the paper's classes), spawned
-into independent streams (path, material, sensors, texture, noise), so a trial is
-bit-identical whatever batch, thread or process simulates it.
+It plans the load and the slide of the timeline :mod:`synth.simulator` describes: the
+start point is placed so that the skin first touches the raised outline ``approach_s``
+after the slide starts, and the path so that the contact phase's middle falls
+:data:`WINDOW_MARGIN_S` before the simulated record's end at the latest, whatever the
+pad's lag; :mod:`synth.recording` cuts the window from the recorded signals. Each trial's
+randomness comes from its own seed streams (:mod:`synth.simulator`), so a plan is the
+same whatever batch, thread or process makes it.
 """
 
 from __future__ import annotations
