@@ -92,9 +92,9 @@ source gives; nothing is tuned per shape, material or class.
         ``picks`` or ``tactile-synth diagnose``). The defaults never come from it.
 
 The sweep simulates 36 classes x ``--trials-per-class`` trials per candidate and seed
-(720 at the default of 20); at 30 trials per class and three seeds a candidate takes
-about 140 s on 2 idle cores, the selection included. The default configuration is
-evaluated once.
+(720 at the default of 20); at 30 trials per class and three seeds a candidate costs
+3,240 simulated trials (``docs/speed.md`` gives the simulator's CPU per trial) and AFOP-ML's
+selection on each dataset. The default configuration is evaluated once.
 """
 
 from __future__ import annotations
