@@ -61,7 +61,7 @@ source gives; nothing is tuned per shape, material or class.
     python3 scripts/calibrate.py update
         Not a calibration: the surface update period (Motion.surface_update_s, a numerical
         choice) of 2 and 4 ms against a 1 ms update, on the same trials (every shape x
-        material, seed 0, at 2, 6, 10, 14 and 24 mm/s): the films' power above 150 Hz
+        material, seed 0, at 2, 6, 10, 14 and 22 mm/s): the films' power above 150 Hz
         (where a too-slow update leaves its rate's tone) as a ratio to the 1 ms run's, and
         each channel group's RMS difference from the 1 ms run relative to its signal, with
         the difference between two seeds at the default period for scale.

@@ -104,8 +104,8 @@ RANGES: dict[str, Bound] = {
         0.05, 3.0, "0.05..3 (3 excluded)", "a dry skin-on-solid coefficient", hi_open=True
     ),
     # Two decades either side of the 1 mm/s default: below 10 um/s the static level
-    # would hold only at imperceptible creep; above 0.1 m/s, four times the fastest
-    # sliding speed the simulator accepts (24 mm/s), the coefficient would never reach
+    # would hold only at imperceptible creep; above 0.1 m/s, 4.5 times the fastest
+    # sliding speed the simulator accepts (22 mm/s), the coefficient would never reach
     # its kinetic value during a stroke.
     "friction.stribeck_velocity_m_s": Bound(
         1e-5, 0.1, "1e-5..0.1 m/s", "a velocity-weakening scale below sliding speeds"

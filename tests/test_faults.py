@@ -341,7 +341,7 @@ def test_overwrite_refused_by_the_real_simulator_keeps_the_old_dataset(
          "--trials-per-class", "1", "--speed", "30", "--overwrite"],
         capsys,
     )  # fmt: skip
-    assert code == 2 and "--speed must lie in 0.1..24 mm/s" in one_line(err)
+    assert code == 2 and "--speed must lie in 0.1..22 mm/s" in one_line(err)
     assert files(out) == before
 
 
@@ -478,7 +478,7 @@ def _no_work(what: str):
         (["--force", "0.01"], "--force must lie in 0.4..3 N"),  # the pad loses contact
         (["--force", "5"], "--force must lie in 0.4..3 N"),  # the ADC saturates, the pad sticks
         (["--speed", "0"], "--speed must be > 0"),
-        (["--speed", "25"], "--speed must lie in 0.1..24 mm/s"),  # the slide leaves the plate
+        (["--speed", "23"], "--speed must lie in 0.1..22 mm/s"),  # the slide leaves the plate
         (["--chunk-trials", "1000000000"], "--chunk-trials must be at most 4096"),
         (["--workers", "1000000"], "--workers 1000000"),
         (["--threads", "1000000"], "--threads 1000000"),

@@ -219,3 +219,23 @@ def test_an_out_holding_other_files_is_refused_without_suggesting_resume(tmp_pat
     assert f"--out {folder} exists and is not a tactile-synth dataset" in err
     assert "choose another --out" in err and "--resume" not in err and "pass --overwrite" not in err
     assert [p.name for p in folder.iterdir()] == ["thesis.tex"]
+
+
+def test_every_built_in_slides_on_the_plate_up_to_the_top_of_the_speed_range(monkeypatch):
+    """The speed range's top (22 mm/s) is one every built-in's slide fits with every
+    trial's scatter at its 3-sigma clip (the fastest, longest slide), at both ends of
+    the force range; at 24 mm/s none fits, which is why the range stops short of it."""
+    from shapes import SHAPE_NAMES
+    from synth import planning
+    from synth.presets import FORCE_RANGE_N, SPEED_RANGE_MM_S
+    from synth.trial import TrialSpec
+
+    monkeypatch.setattr(planning, "_scatter", lambda rng, rel, size=None: 1.0 + 3.0 * rel)
+    config = synth.SynthConfig()
+    for shape in SHAPE_NAMES:
+        for force in FORCE_RANGE_N:
+            planning.plan(
+                TrialSpec(shape, "wood", force_n=force, speed_mm_s=SPEED_RANGE_MM_S[1]), config
+            )
+        with pytest.raises(ValueError, match=r"speed_mm_s=24\.0 makes the finger travel"):
+            planning.plan(TrialSpec(shape, "wood", speed_mm_s=24.0), config)

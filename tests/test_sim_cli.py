@@ -50,7 +50,7 @@ def test_view_explains_when_there_is_no_display(monkeypatch, capsys):
     [
         ("--force", "1000", "--force must lie in 0.4..3 N"),
         ("--force", "0.01", "--force must lie in 0.4..3 N"),
-        ("--speed", "25", "--speed must lie in 0.1..24 mm/s"),
+        ("--speed", "23", "--speed must lie in 0.1..22 mm/s"),
         ("--seed", "-1", "--seed must be >= 0"),
     ],
 )

@@ -109,15 +109,23 @@ def test_the_full_suite_on_the_paper_preset_passes_its_own_checks():
     check_values([families.get(n) for n in families.FAMILY_NAMES], [1, 2, 3, 4, 5], base)
 
 
-def test_a_speed_beyond_the_plate_is_refused_before_anything_is_simulated(tmp_path):
+def test_a_severity_off_the_plate_is_refused_before_anything_is_simulated(tmp_path):
     """A family's severity whose slides would run off the plate is one line naming the
-    family, the severity and the specimen."""
+    family, the severity and the specimen; the speed family reaches the top of the
+    simulator's range (22 mm/s, which every built-in's slide fits) and no further."""
     base = clean_set_config(PRESETS["paper"], trials_per_class=2, seed=0)
 
-    class Faster(families.get("speed").__class__):
-        levels = (2.35,) * 5  # 23.5 mm/s: within the simulator's range, off the plate
+    class Turned(families.get("yaw").__class__):
+        levels = (30.0,) * 5  # the specimen turned by 30 deg: the path crosses the plate
 
     with pytest.raises(
-        ValueError, match=r"--families speed severity 1 .*beyond the .*slide slower"
+        ValueError, match=r"--families yaw severity 1 .*pentagram runs .*beyond the 30 mm wide"
     ):
-        check_values([Faster()], [1], base)
+        check_values([Turned()], [1], base)
+
+    class Fastest(families.get("speed").__class__):
+        levels = (2.2, 2.2, 2.2, 2.2, 2.25)  # 22 mm/s (as 10 x 2.2 rounds), then 22.5
+
+    check_values([Fastest()], [1], base)
+    with pytest.raises(ValueError, match=r"22\.5 mm/s lies outside 0\.1\.\.22 mm/s"):
+        check_values([Fastest()], [5], base)

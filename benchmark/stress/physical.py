@@ -18,7 +18,7 @@ from typing import Any
 
 import shapely
 
-from synth.presets import FORCE_RANGE_N, SPEED_RANGE_MM_S, GenerationConfig
+from synth.presets import FORCE_RANGE_N, SPEED_RANGE_MM_S, GenerationConfig, in_range
 
 from .families import PhysicalFamily
 
@@ -67,7 +67,7 @@ class Force(PhysicalFamily):
         if config is not None:
             force = _condition(config)[0] * value
             lo, hi = FORCE_RANGE_N
-            if not lo <= force <= hi:
+            if not in_range(force, FORCE_RANGE_N):
                 raise ValueError(
                     f"force x{value:g}: {force:g} N lies outside {lo:g}..{hi:g} N, the range "
                     "the simulator reproduces"
@@ -93,7 +93,7 @@ class Speed(PhysicalFamily):
         if config is not None:
             speed = _condition(config)[1] * value
             lo, hi = SPEED_RANGE_MM_S
-            if not lo <= speed <= hi:
+            if not in_range(speed, SPEED_RANGE_MM_S):
                 raise ValueError(
                     f"speed x{value:g}: {speed:g} mm/s lies outside {lo:g}..{hi:g} mm/s, the "
                     "range the simulator accepts (faster slides run off the plate)"

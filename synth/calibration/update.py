@@ -18,7 +18,7 @@ from .settings import with_value
 UPDATE_PERIODS_S = (0.001, 0.002, 0.004)
 #: Speeds ``update`` compares them at: the presets' 6, 10 and 14 mm/s, a slow slide that
 #: sticks and slips, and the fastest a grid may ask for.
-UPDATE_SPEEDS_MM_S = (2.0, 6.0, 10.0, 14.0, 24.0)
+UPDATE_SPEEDS_MM_S = (2.0, 6.0, 10.0, 14.0, 22.0)
 #: The band an update-rate artefact shows in: above the texture's strongest tones.
 UPDATE_BAND_HZ = 150.0
 
