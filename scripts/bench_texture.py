@@ -14,6 +14,15 @@ the slowest to the fastest speed on every material. Then the same band's RMS of 
 texture's push on the skin (the tangential force ``-slope * F_n`` the simulated contact
 feels, ``Trial.truth["texture_push_n"]``) on the same segments, and the films' RMS per
 unit of it: the input the surface gives and what the finger's mechanics make of it.
+
+    python3 scripts/bench_texture.py --transfer [40 70 100 170 250] [--seeds 3]
+
+measures instead how the finger carries a push of each frequency to the films: the
+resin specimen's texture is replaced by a pure sinusoid (no roughness) whose wavelength
+puts it at each frequency at 10 mm/s (slope amplitude 0.02), and on the steady segments
+the films' RMS and the push's, each in a band of +-15 % about the frequency, give the
+films' output per unit of push. A finger whose films read the contact's traction gives
+the same ratio at every frequency, up to the pad's own modes above the band.
 """
 
 from __future__ import annotations
@@ -92,6 +101,49 @@ def measure(
     return means(films), means(push)
 
 
+#: The sinusoid of ``--transfer``: its slope amplitude and the speed it is slid at.
+TRANSFER_SLOPE = 0.02
+TRANSFER_SPEED_MM_S = 10.0
+
+
+def transfer(
+    config: synth.SynthConfig,
+    freqs_hz: list[float],
+    seeds: int,
+    force_n: float,
+    margin_m: float,
+) -> dict[float, tuple[float, float]]:
+    """Per frequency ``(films_v, push_n)``: the films' RMS (mean of the two films) and the
+    push's in a band of +-15 % about the frequency, on the steady segments of ``seeds``
+    trials over the square whose resin top is a pure sinusoid at that frequency."""
+    import dataclasses
+
+    out = {}
+    speed_m_s = TRANSFER_SPEED_MM_S * 1e-3
+    for f in freqs_hz:
+        wavelength = speed_m_s / f
+        wave = synth.materials.Texture(
+            0.0,
+            1e-4,
+            (synth.materials.Periodic(wavelength, TRANSFER_SLOPE * wavelength / (2 * np.pi)),),
+        )
+        cfg = config.with_material(dataclasses.replace(config.materials["resin"], texture=wave))
+        specs = [
+            TrialSpec("square", "resin", force_n=force_n, speed_mm_s=TRANSFER_SPEED_MM_S, seed=s)
+            for s in range(seeds)
+        ]
+        films, push = [], []
+        band = (0.85 * f, 1.15 * f)
+        for t in synth.simulate_batch(specs, config=cfg):
+            seg = steady_segment(t, margin_m)
+            if seg is None:
+                raise SystemExit(f"bench_texture: no steady segment in {t.spec}")
+            films.append(np.mean([band_rms(t.signals[c, seg].astype(float), band) for c in (0, 1)]))
+            push.append(band_rms(np.asarray(t.truth["texture_push_n"][seg], dtype=float), band))
+        out[f] = (float(np.mean(films)), float(np.mean(push)))
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int_arg, default=3)
@@ -99,6 +151,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--force", type=float, default=1.0)
     parser.add_argument("--margin-mm", type=float, default=3.0)
     parser.add_argument("--json", help="also write the table to this JSON file")
+    parser.add_argument(
+        "--transfer",
+        type=float,
+        nargs="*",
+        metavar="HZ",
+        help="the films per unit of push on a pure sinusoid at these frequencies "
+        "(default 40 70 100 170 250 Hz) instead of the materials' table",
+    )
     parser.add_argument(
         "--set",
         action="append",
@@ -118,6 +178,28 @@ def main(argv: list[str] | None = None) -> int:
             config = configured(args.set)
         except CalibrationError as exc:
             raise SystemExit(str(exc)) from None
+    if args.transfer is not None:
+        freqs = sorted(args.transfer) or [40.0, 70.0, 100.0, 170.0, 250.0]
+        if freqs[0] < BAND_HZ[0] / 0.85 or freqs[-1] > BAND_HZ[1] / 1.15:
+            parser.error(
+                f"--transfer frequencies must lie in {BAND_HZ[0] / 0.85:.1f}.."
+                f"{BAND_HZ[1] / 1.15:.1f} Hz (their +-15 % band inside the texture band)"
+            )
+        res = transfer(config, freqs, args.seeds, args.force, args.margin_mm * 1e-3)
+        print(
+            f"a pure sinusoid (slope amplitude {TRANSFER_SLOPE:g}) on the square's top at "
+            f"{TRANSFER_SPEED_MM_S:g} mm/s, {args.force:g} N, mean of {args.seeds} seeds; RMS "
+            "in +-15 % about each frequency"
+        )
+        print("frequency   films (mV)   push (mN)   films per push (mV/mN)")
+        for f, (films, push) in res.items():
+            print(f"{f:>6g} Hz {films * 1e3:>12.3f} {push * 1e3:>11.3f} {films / push:>14.3f}")
+        ratios = [films / push for films, push in res.values()]
+        print(f"highest over lowest ratio: {max(ratios) / min(ratios):.3f}")
+        if args.json:
+            with open(args.json, "w") as fh:
+                json.dump({str(f): {"films_v": a, "push_n": b} for f, (a, b) in res.items()}, fh)
+        return 0
     speeds = sorted(args.speeds)
     table, push = measure(config, speeds, args.seeds, args.force, args.margin_mm * 1e-3)
     print(f"films' {BAND_HZ[0]:g}-{BAND_HZ[1]:g} Hz RMS (mV) on the square's steady top, ")

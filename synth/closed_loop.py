@@ -17,9 +17,10 @@ the next period's inputs from it:
   material (the skin's bottom point: it moves over the surface only when the skin
   slips, so a stuck pad feels a still surface), extrapolated over the period with its
   simulated slip velocity, and felt by the ridges inside the contact of the simulated
-  normal load, drive the specimen's height and the slope's tangential push on the skin
-  (at the contact point; the push is returned beside the height, so the films read it as
-  part of the skin's traction).
+  normal load, set the specimen's pose: it rises to the height and turns by the slope
+  under the contact, so the contact's normal tilts and MuJoCo's contact carries the
+  texture's push (``-slope x normal load`` along the path, returned beside the height
+  for the trial's truth) and moves the contact over the pad as a turned plane would.
 
 Nothing here sees the planned path except the x/y servo set points themselves; every
 texture and friction input comes from where the pad is and how it moves. Each trial's
@@ -268,7 +269,6 @@ class ClosedLoop:
             raise ValueError(f"steps ({steps}) must be a multiple of the update period ({k})")
         nseg = steps // k
         control_every = mot.control_steps // k  # force-loop updates happen every n periods
-        radius = cfg.finger.pad_radius_m
         b, base = self.b, self.models[0]
         n_read = self.wrist_noise.shape[1]
         nstate, nsens = initial_state.shape[1], base.nsensordata
@@ -312,11 +312,9 @@ class ClosedLoop:
             ]
         )
         c_pad = slice(cols["pad_pos"].start, cols["pad_pos"].start + 2)
-        mx, mz = lay["pad_wrench"].start, lay["mocap_pos"].start + 2
+        mz = lay["mocap_pos"].start + 2  # the height, then the orientation's quaternion
         direction = self.dir
         ahead = np.arange(1, k + 1) * dt
-        # The pad wrench's torque r x F at the contact (r = -R z): (R F_y, -R F_x).
-        lever = np.array([radius, -radius])
 
         # Before the first period: the pad rests at the start, loaded by the set force. These
         # inputs are updated in place after every period (kernels.next_state).
@@ -364,8 +362,9 @@ class ClosedLoop:
                 xy_seg[:, g],
                 z_set,
                 direction,
-                lever,
-                mx,
+                s_now,
+                v_now,
+                ahead,
                 mz,
                 control,
                 push_out[:, g],

@@ -299,27 +299,36 @@ def _clamped(pos, last):
 
 
 @numba.njit(cache=True, nogil=True)
-def controls(h, slope, normal, xy, z_ref, direction, lever, mx, mz, control, push_out):
+def controls(h, slope, normal, xy, z_ref, direction, s_now, v_now, ahead, mz, control, push_out):
     """A period's controls ``(b, k, ncontrol)``: the x/y servo set points ``xy`` ``(b, k,
-    2)``, the z set point ``z_ref``, the slope's push ``-slope * normal`` along the path
-    ``direction`` at the contact (force in columns ``mx, mx + 1``, its torque about the
-    pad's centre ``(F_y, F_x) * lever`` in ``mx + 3, mx + 4``) and the specimen's height
-    ``h`` in column ``mz``; the push along the path into ``push_out`` ``(b, k)``."""
+    2)``, the z set point ``z_ref`` and the specimen's pose, which puts the felt surface
+    under the skin's contacting point (path coordinate ``s_now + v_now * ahead``) at height
+    ``h`` and slope ``slope`` along the path ``direction``: the specimen turns by
+    ``atan(slope)`` about the horizontal axis across the path (quaternion in columns
+    ``mz + 1 .. mz + 4``) and rises to ``h - slope * s`` (column ``mz``), so that the turned
+    plane passes through height ``h`` at ``s``. Into ``push_out`` ``(b, k)``: the share of
+    the normal load the turned plane tips along the path, ``-slope * normal``.
+
+    The half-angle's cosine and sine come from square roots alone (``cos a = 1 / sqrt(1 +
+    slope^2)``, ``cos(a/2) = sqrt((1 + cos a) / 2)``, ``sin(a/2) = slope cos a / (2
+    cos(a/2))``): IEEE square roots give the same bits on every CPU."""
     b, k = h.shape
     for i in range(b):
         for t in range(k):
-            push = slope[i, t] * -normal[i]
-            push_out[i, t] = push
-            fx = push * direction[i, 0]
-            fy = push * direction[i, 1]
+            m = slope[i, t]
+            push_out[i, t] = m * -normal[i]
+            s = s_now[i] + v_now[i] * ahead[t]
+            cos_a = 1.0 / math.sqrt(1.0 + m * m)
+            c2 = math.sqrt((1.0 + cos_a) / 2.0)
+            s2 = m * cos_a / (2.0 * c2)
             control[i, t, 0] = xy[i, t, 0]
             control[i, t, 1] = xy[i, t, 1]
             control[i, t, 2] = z_ref[i]
-            control[i, t, mx] = fx
-            control[i, t, mx + 1] = fy
-            control[i, t, mx + 3] = fy * lever[0]
-            control[i, t, mx + 4] = fx * lever[1]
-            control[i, t, mz] = h[i, t]
+            control[i, t, mz] = h[i, t] - m * s
+            control[i, t, mz + 1] = c2
+            control[i, t, mz + 2] = s2 * direction[i, 1]
+            control[i, t, mz + 3] = -(s2 * direction[i, 0])
+            control[i, t, mz + 4] = 0.0
 
 
 @numba.njit(cache=True, nogil=True)

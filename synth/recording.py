@@ -107,10 +107,9 @@ def _process(
         mech.indentation_m,
         mech.traction_n,
     )
-    # The skin's traction is the contact's friction plus the texture's push, which the
-    # closed loop applies to the skin at the contact: the films read both, as the mount
-    # does through the pad.
-    mech.traction_n[...] += surface[:, :, 1]
+    # The skin's traction is the contact's whole tangential force: its friction and, on
+    # the texture's tilted plane, the normal force's share along the path (the texture's
+    # push). The films read it, as the mount does through the pad.
     strain = sensors.gauge_strains(mech, config.finger, config.strain_gauge)
     sg = sensors.bridge_volts(strain, config.strain_gauge, fs)
     pvdf = sensors.pvdf_volts(

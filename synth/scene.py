@@ -3,10 +3,11 @@
 Bodies (x = sliding direction, z up; the specimen's plate top is z = 0):
 
 - ``specimen`` (mocap): base plate box + the convex pieces of the raised outline. It is
-  kinematic (clamped to the table); its vertical mocap position carries the height of the
-  surface texture under the simulated contact (see :mod:`synth.texture` and
-  :mod:`synth.closed_loop`), so texture acts through the contact physics at the cost of
-  one number per step instead of a fine height field.
+  kinematic (clamped to the table); its mocap pose carries the surface texture under the
+  simulated contact (see :mod:`synth.texture` and :mod:`synth.closed_loop`): its height
+  by the vertical position, its slope along the path by a small turn, so the contact's
+  normal tilts with the texture and the texture acts through the contact physics at the
+  cost of five numbers per step instead of a fine height field.
 - ``phalanx``: the rigid finger bone on the robot's tip: x, y and z slide joints held by
   stiff position servos; the robot's controller moves the x/y set points along the path
   and the z set point to hold the normal force.
@@ -57,27 +58,33 @@ SENSORS: tuple[tuple[str, int], ...] = (
 
 #: Actuators: x, y and z position servos.
 N_CTRL = 3
-#: Control vector per step (MuJoCo's order): the 3 servo set points, the external wrench
-#: on every body (6 each; the texture slope's tangential force on the pad), the specimen's
-#: mocap position (its texture height).
+#: Control vector per step (MuJoCo's order): the 3 servo set points, the specimen's
+#: mocap position (its texture height) and orientation (its texture slope).
 CONTROL_SPEC = (
     mujoco.mjtState.mjSTATE_CTRL
-    | mujoco.mjtState.mjSTATE_XFRC_APPLIED
     | mujoco.mjtState.mjSTATE_MOCAP_POS
+    | mujoco.mjtState.mjSTATE_MOCAP_QUAT
 )
 
 
 def control_layout(model: mujoco.MjModel) -> dict[str, slice]:
     """Where each input sits in a :data:`CONTROL_SPEC` vector."""
-    pad = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "pad")
-    xfrc = model.nu + 6 * pad
-    mocap = model.nu + 6 * model.nbody
+    mocap = model.nu
     return {
         "ctrl": slice(0, model.nu),
-        "pad_wrench": slice(xfrc, xfrc + 6),
         "mocap_pos": slice(mocap, mocap + 3),
-        "size": slice(0, mocap + 3),
+        "mocap_quat": slice(mocap + 3, mocap + 7),
+        "size": slice(0, mocap + 7),
     }
+
+
+def rest_control(model: mujoco.MjModel) -> np.ndarray:
+    """A :data:`CONTROL_SPEC` vector with every input at rest: servo set points 0, the
+    specimen at its place, unturned (the identity quaternion)."""
+    lay = control_layout(model)
+    control = np.zeros(lay["size"].stop)
+    control[lay["mocap_quat"].start] = 1.0
+    return control
 
 
 STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS

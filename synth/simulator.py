@@ -124,7 +124,7 @@ def _initial_states(plans: Sequence[Plan]) -> np.ndarray:
         mujoco.mj_resetData(p.model, data)
         data.time = CLOCK_START_S
         data.qpos[:] = p.initial_qpos
-        control = np.zeros(lay["size"].stop)
+        control = scene_mod.rest_control(p.model)
         control[lay["ctrl"]] = (p.loop.x_ref[0], p.loop.y_ref[0], p.loop.z_ref0)
         mujoco.mj_setState(p.model, data, control, scene_mod.CONTROL_SPEC)
         state = np.empty(mujoco.mj_stateSize(p.model, scene_mod.STATE_SPEC))
@@ -301,10 +301,9 @@ def _raw_rollout_times(
         steps = max(p.steps for p in group)
         base = group[0].model
         datas = [mujoco.MjData(base) for _ in range(threads)]
-        lay = scene_mod.control_layout(base)
         for part in batches(len(group)):
             chunk = group[part]
-            control = np.zeros((len(chunk), steps, lay["size"].stop))
+            control = np.tile(scene_mod.rest_control(base), (len(chunk), steps, 1))
             for i, p in enumerate(chunk):
                 control[i, :, 0] = p.loop.x_ref[:steps]
                 control[i, :, 1] = p.loop.y_ref[:steps]

@@ -68,7 +68,7 @@ def measure_indentation(config: SynthConfig, forces_n: Sequence[float]) -> np.nd
         data.qpos[sc.qpos_index["pdms_z"]] = preload
         z_ref = z - f / mot.servo_stiffness_n_m
         lay = scene_mod.control_layout(model)
-        control = np.zeros(lay["size"].stop)
+        control = scene_mod.rest_control(model)
         control[lay["ctrl"]] = (-0.02, 0.0, z_ref)
         mujoco.mj_setState(model, data, control, scene_mod.CONTROL_SPEC)
         data.time = CLOCK_START_S  # a reset shows in the clock (closed_loop.CLOCK_START_S)

@@ -45,7 +45,7 @@ def test_the_example_experiment_generates_diagnoses_and_benchmarks(tmp_path, cap
 
     assert main(["diagnose", str(data), "--out", str(diag)]) == 0
     text = (diag / "diagnose.md").read_text()
-    assert "| gear |" in text and "gear/glass" in text
+    assert "| gear |" in text and "| shape | glass | pla_top |" in text
     assert json.loads((diag / "diagnose.json").read_text())["classes"] == list(CLASSES)
 
     argv = ["run", "--quick", "--data", str(data), "--out", str(run), "--methods", "AFOP-ML"]

@@ -76,26 +76,58 @@ def test_height_at_reads_the_loaded_surface_as_look_up_reads_it():
 
 def test_the_compiled_controls_give_their_numpy_forms_bits():
     rng = np.random.default_rng(5)
-    b, k, mx, mz = 6, 4, 21, 29
+    b, k, mz = 6, 4, 5
     h, slope = rng.normal(0, 1e-6, (b, k)), rng.normal(0, 1e-2, (b, k))
     normal, z_ref = rng.uniform(0, 2, b), rng.normal(0, 1e-3, b)
     xy = rng.normal(0, 1e-2, (b, 3, k, 2))[:, 1]  # a strided view, as the loop passes it
     angle = rng.normal(0, 0.01, b)
     direction = np.stack([np.cos(angle), np.sin(angle)], axis=1)
-    lever = np.array([0.007, -0.007])
-    got = np.zeros((b, k, 30))
+    s_now, v_now = rng.normal(0, 1e-2, b), rng.uniform(0, 2e-2, b)
+    ahead = np.arange(1, k + 1) * 5e-4
+    got = np.zeros((b, k, 10))
     push = np.empty((b, k))
-    kernels.controls(h, slope, normal, xy, z_ref, direction, lever, mx, mz, got, push)
+    kernels.controls(h, slope, normal, xy, z_ref, direction, s_now, v_now, ahead, mz, got, push)
 
-    want = np.zeros((b, k, 30))
-    force = (slope * -normal[:, None])[:, :, None] * direction[:, None, :]
+    want = np.zeros((b, k, 10))
     want[:, :, 0:2] = xy
     want[:, :, 2] = z_ref[:, None]
-    want[:, :, mx : mx + 2] = force
-    want[:, :, mx + 3 : mx + 5] = force[:, :, ::-1] * lever
-    want[:, :, mz] = h
+    s = s_now[:, None] + v_now[:, None] * ahead
+    want[:, :, mz] = h - slope * s
+    cos_a = 1.0 / np.sqrt(1.0 + slope * slope)
+    c2 = np.sqrt((1.0 + cos_a) / 2.0)
+    s2 = slope * cos_a / (2.0 * c2)
+    want[:, :, mz + 1] = c2
+    want[:, :, mz + 2] = s2 * direction[:, 1:2]
+    want[:, :, mz + 3] = -(s2 * direction[:, 0:1])
     assert np.array_equal(got, want)
     assert np.array_equal(push, slope * -normal[:, None])
+
+
+def test_the_specimens_turn_puts_the_felt_plane_under_the_contact():
+    """The quaternion turns the plate's normal to the felt slope's normal along the path,
+    and the turned plate passes through the felt height at the contact's path coordinate."""
+    from scipy.spatial.transform import Rotation
+
+    b, k, mz = 1, 1, 5
+    for slope, heading, s_m in ((0.02, 0.3, 0.004), (-0.05, -1.2, -0.007)):
+        h = np.array([[3e-6]])
+        direction = np.array([[math.cos(heading), math.sin(heading)]])
+        got = np.zeros((b, k, 10))
+        kernels.controls(
+            h, np.array([[slope]]), np.array([1.0]), np.zeros((b, k, 2)), np.zeros(b),
+            direction, np.array([s_m]), np.zeros(b), np.zeros(k), mz, got, np.empty((b, k)),
+        )  # fmt: skip
+        w, x, y, z = got[0, 0, mz + 1 : mz + 5]
+        turn = Rotation.from_quat([x, y, z, w])
+        normal = turn.apply([0.0, 0.0, 1.0])
+        d = np.array([*direction[0], 0.0])
+        want = np.array([-slope * d[0], -slope * d[1], 1.0]) / math.hypot(1.0, slope)
+        assert np.allclose(normal, want, rtol=0, atol=1e-15)
+        # The turned plate's plane through its origin (0, 0, z): its height above the
+        # contact's point on the path, s_m along the direction, is the felt height.
+        q = s_m * d
+        height = got[0, 0, mz] - (normal[0] * q[0] + normal[1] * q[1]) / normal[2]
+        assert height == pytest.approx(3e-6, rel=1e-9)
 
 
 def _state_inputs(rng, b, k, nstate, nsens, dt):

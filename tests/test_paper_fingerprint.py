@@ -23,19 +23,19 @@ PLAN_SHA256 = {
 SIGNALS_SHA256 = {
     ("paper", 0): (
         "circle/resin",
-        "9988e443ccf057a7a64bc1b9e7b9bc42eb97a16a48705b966bd6a4dfa18da55d",
+        "69085576aea4b63dd46e9ee81a6e19a3c3504d77f0b691de6f3365464a03fb35",
     ),
     ("paper", 725): (
         "moon/resin",
-        "a458b2d4035d28b0890d64594f3a0b0885e96a4859f339ca56ffae4a3dc3cb8d",
+        "f0c62a6617e5a479f2b0dc4ddfe191ea39a6b54c007bc21c6c1204d32a0210ed",
     ),
     ("paper", 2159): (
         "triangle/aluminum",
-        "926f6c3bc50ee658521edf9d485ee48d1d0f90e41b24eac9601b7ee9962ee8fb",
+        "a971e986a875bf71a3916e6291e1ee59609cf04038748f0f2ec2cfed16736166",
     ),
     ("perturbation", 2879): (
         "triangle/aluminum",
-        "a67099a4a034c621fee5fa96c68aeb287d4f3ed42d5efef96e437be4dca025a9",
+        "df2fd2a0d58c84a64a64b6c25e5d61a156897a9080d9c63c2116af65fc0c40aa",
     ),
 }
 

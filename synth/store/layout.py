@@ -17,8 +17,10 @@ from ..trial import CHANNELS, N_SAMPLES
 #: Bumped whenever the layout above changes incompatibly or the simulator writes other
 #: signals for the same configuration (a store is only resumed by the simulator that
 #: started it). Version 11: ``label`` indexes the store's own class list (attribute
-#: ``classes``, the grid's classes), no longer the paper's 36 names.
-FORMAT_VERSION: int = 11
+#: ``classes``, the grid's classes), no longer the paper's 36 names. Version 12: the
+#: texture's slope turns the specimen under the contact (its push reaches the skin
+#: through the contact itself), so every trial's signals differ from version 11's.
+FORMAT_VERSION: int = 12
 ATTR_KEY = "tactile_synth"
 #: The two kinds of store (attribute ``kind``; a store without it is simulated).
 KIND_SIMULATED = "simulated"
