@@ -132,6 +132,24 @@ def test_a_number_with_an_underscore_is_refused_naming_the_option(name, argv, tm
     assert "write '1000'" in last
 
 
+def test_bench_texture_transfer_gives_the_films_per_unit_of_push_per_frequency(
+    monkeypatch, tmp_path, capsys
+):
+    main = _script("bench_texture", monkeypatch).main
+    out = tmp_path / "transfer.json"
+    assert main(["--transfer", "40", "170", "--seeds", "1", "--json", str(out)]) == 0
+    import json
+
+    table = json.loads(out.read_text())
+    assert set(table) == {"40.0", "170.0"}
+    ratios = [row["films_v"] / row["push_n"] for row in table.values()]
+    assert all(r > 0 for r in ratios) and max(ratios) / min(ratios) < 1.15
+    assert "highest over lowest ratio" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        main(["--transfer", "10"])  # its +-15 % band would leave the texture band
+    assert "--transfer frequencies must lie in 23.5..347.8 Hz" in capsys.readouterr().err
+
+
 def test_bench_texture_reports_the_films_and_the_push_they_read(monkeypatch, tmp_path, capsys):
     # One trial per material: the push's table comes from the same steady segments as the
     # films', and wood's rough surface pushes the skin more than milled aluminium's.
