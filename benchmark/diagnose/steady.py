@@ -1,10 +1,10 @@
 """Where a dataset's material information lies: steady sliding against the edges.
 
-The whole 2 s window holds the edge crossings, where the films ring a thousand times
-harder than while the skin slides over a face. :func:`steady_diagnosis` finds, in each
-trial's own signals, the stretches of steady sliding at least :data:`EDGE_GAP_S` from
-any wall crossing, and reports per channel group (all channels, strain gauges only,
-PVDF films only):
+The whole 2 s window holds the edge crossings, where the films ring some hundred times
+harder than while the skin slides over a face (volts against tens of millivolts).
+:func:`steady_diagnosis` finds, in each trial's own signals, the stretches of steady
+sliding at least :data:`EDGE_GAP_S` from any wall crossing, and reports per channel
+group (all channels, strain gauges only, PVDF films only):
 
 - leave-one-out 1-NN accuracy of the material on features of those steady stretches
   alone (:func:`steady_features`), beside the whole window's (the diagnosis's own);
