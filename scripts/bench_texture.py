@@ -28,6 +28,7 @@ the same ratio at every frequency, up to the pad's own modes above the band.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 
@@ -66,6 +67,20 @@ def band_rms(x: np.ndarray, band_hz: tuple[float, float] = BAND_HZ) -> float:
     return float(np.sqrt(np.mean(signal.sosfiltfilt(sos, x - x.mean()) ** 2)))
 
 
+def films_and_push(
+    trial: synth.Trial, margin_m: float, band_hz: tuple[float, float] = BAND_HZ
+) -> tuple[float, float]:
+    """On ``trial``'s steady segment: the films' RMS in ``band_hz`` (mean of the two
+    films, volts) and the texture push's (newtons); exits naming the trial if it has no
+    steady segment."""
+    seg = steady_segment(trial, margin_m)
+    if seg is None:
+        raise SystemExit(f"bench_texture: no steady segment in {trial.spec}")
+    films = np.mean([band_rms(trial.signals[c, seg].astype(float), band_hz) for c in (0, 1)])
+    push = band_rms(np.asarray(trial.truth["texture_push_n"][seg], dtype=float), band_hz)
+    return float(films), push
+
+
 def measure(
     config: synth.SynthConfig,
     speeds: list[float],
@@ -87,12 +102,8 @@ def measure(
     films: dict[str, dict[float, list[float]]] = {}
     push: dict[str, dict[float, list[float]]] = {}
     for t in trials:
-        seg = steady_segment(t, margin_m)
-        if seg is None:
-            raise SystemExit(f"bench_texture: no steady segment in {t.spec}")
-        rms = np.mean([band_rms(t.signals[c, seg].astype(float)) for c in (0, 1)])
+        rms, felt = films_and_push(t, margin_m)
         films.setdefault(t.spec.material, {}).setdefault(t.spec.speed_mm_s, []).append(rms)
-        felt = band_rms(np.asarray(t.truth["texture_push_n"][seg], dtype=float))
         push.setdefault(t.spec.material, {}).setdefault(t.spec.speed_mm_s, []).append(felt)
 
     def means(table: dict[str, dict[float, list[float]]]) -> dict[str, dict[float, float]]:
@@ -116,8 +127,6 @@ def transfer(
     """Per frequency ``(films_v, push_n)``: the films' RMS (mean of the two films) and the
     push's in a band of +-15 % about the frequency, on the steady segments of ``seeds``
     trials over the square whose resin top is a pure sinusoid at that frequency."""
-    import dataclasses
-
     out = {}
     speed_m_s = TRANSFER_SPEED_MM_S * 1e-3
     for f in freqs_hz:
@@ -135,11 +144,9 @@ def transfer(
         films, push = [], []
         band = (0.85 * f, 1.15 * f)
         for t in synth.simulate_batch(specs, config=cfg):
-            seg = steady_segment(t, margin_m)
-            if seg is None:
-                raise SystemExit(f"bench_texture: no steady segment in {t.spec}")
-            films.append(np.mean([band_rms(t.signals[c, seg].astype(float), band) for c in (0, 1)]))
-            push.append(band_rms(np.asarray(t.truth["texture_push_n"][seg], dtype=float), band))
+            rms, felt = films_and_push(t, margin_m, band)
+            films.append(rms)
+            push.append(felt)
         out[f] = (float(np.mean(films)), float(np.mean(push)))
     return out
 
