@@ -2,6 +2,7 @@
 
     python3 scripts/bench_texture.py [--seeds 3] [--speeds 6 10 14] [--force 1.0]
                                      [--set SECTION.FIELD=VALUE ...]
+                                     [--texture MATERIAL.FIELD=VALUE ...]
 
 Slides the finger over the square's top at ``--force`` newtons, at each speed and on
 each material, and keeps the steady-sliding segment of the window: the samples whose
@@ -14,6 +15,9 @@ the slowest to the fastest speed on every material. Then the same band's RMS of 
 texture's push on the skin (the tangential force ``-slope * F_n`` the simulated contact
 feels, ``Trial.truth["texture_push_n"]``) on the same segments, and the films' RMS per
 unit of it: the input the surface gives and what the finger's mechanics make of it.
+``--texture wood.correlation_length_m=50e-6`` measures a material with another value of
+its random roughness (``roughness_rms_m`` or ``correlation_length_m``), e.g. a free
+choice at either end of its plausible range.
 
     python3 scripts/bench_texture.py --transfer [40 70 100 170 250] [--seeds 3]
 
@@ -151,6 +155,38 @@ def transfer(
     return out
 
 
+#: The texture fields ``--texture`` may change.
+TEXTURE_FIELDS = ("roughness_rms_m", "correlation_length_m")
+
+
+def with_texture(config: synth.SynthConfig, items: list[str]) -> synth.SynthConfig:
+    """``config`` with each ``MATERIAL.FIELD=VALUE`` of ``items`` set on that material's
+    texture; a one-line ``ValueError`` names a malformed or unknown item."""
+    for item in items:
+        name, eq, value = item.partition("=")
+        material, dot, field = name.partition(".")
+        if not (eq and dot):
+            raise ValueError(f"--texture {item!r}: write MATERIAL.FIELD=VALUE")
+        if material not in config.materials:
+            known = ", ".join(sorted(config.materials))
+            raise ValueError(f"--texture {item!r}: no material {material!r} (known: {known})")
+        if field not in TEXTURE_FIELDS:
+            raise ValueError(
+                f"--texture {item!r}: FIELD must be one of {', '.join(TEXTURE_FIELDS)}"
+            )
+        try:
+            number = float(value)
+        except ValueError:
+            raise ValueError(f"--texture {item!r}: {value!r} is not a number") from None
+        mat = config.materials[material]
+        try:
+            texture = dataclasses.replace(mat.texture, **{field: number})
+        except ValueError as exc:
+            raise ValueError(f"--texture {item!r}: {exc}") from None
+        config = config.with_material(dataclasses.replace(mat, texture=texture))
+    return config
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int_arg, default=3)
@@ -172,6 +208,12 @@ def main(argv: list[str] | None = None) -> int:
         metavar="SECTION.FIELD=VALUE",
         help="measure another configuration (as scripts/calibrate.py whatif --set)",
     )
+    parser.add_argument(
+        "--texture",
+        action="append",
+        metavar="MATERIAL.FIELD=VALUE",
+        help="measure a material with another roughness_rms_m or correlation_length_m",
+    )
     args = parser.parse_args(argv)
     if args.seeds < 1:
         parser.error("--seeds must be at least 1")
@@ -185,6 +227,11 @@ def main(argv: list[str] | None = None) -> int:
             config = configured(args.set)
         except CalibrationError as exc:
             raise SystemExit(str(exc)) from None
+    if args.texture:
+        try:
+            config = with_texture(config, args.texture)
+        except ValueError as exc:
+            parser.error(str(exc))
     if args.transfer is not None:
         freqs = sorted(args.transfer) or [40.0, 70.0, 100.0, 170.0, 250.0]
         if freqs[0] < BAND_HZ[0] / 0.85 or freqs[-1] > BAND_HZ[1] / 1.15:

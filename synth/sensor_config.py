@@ -119,7 +119,15 @@ class PVDF:
     #: pad's axis, on the skin's surface.
     offset_m: float = 4.0e-3
     #: Charge amplifier feedback capacitance and resistance: 1 nF, 100 MOhm -> 1.6 Hz
-    #: high-pass, which blocks the film's pyroelectric and slow thermal drift.
+    #: high-pass, which blocks the film's pyroelectric and slow thermal drift. The
+    #: finger's description does not give the films' readout: a free choice. A charge
+    #: amplifier reads the film's stress at every frequency above its corner; a film read
+    #: in voltage mode across a load resistor is the same first-order high-pass of the
+    #: charge, with the film's and the input's capacitance in place of ``C_f`` (Piezo
+    #: Film Sensors Technical Manual: 10 MOhm in its example), and across 10 MOhm its
+    #: corner, about 90 Hz, lies inside the texture band, where the output follows the
+    #: stress's rate. ``scripts/calibrate.py sweep`` measures a corner of 88 Hz beside
+    #: the default (``docs/simulator.md``, "The films' readout").
     feedback_capacitance_f: float = 1.0e-9
     feedback_resistance_ohm: float = 100e6
     #: Voltage gain after the charge amplifier, sized so the sharpest edge transients of

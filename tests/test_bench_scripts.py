@@ -166,3 +166,31 @@ def test_bench_texture_reports_the_films_and_the_push_they_read(monkeypatch, tmp
     assert table["push_n"]["wood"]["10.0"] > 1.5 * table["push_n"]["aluminum"]["10.0"]
     printed = capsys.readouterr().out
     assert "texture push on the skin" in printed and "films per unit of push" in printed
+
+
+@pytest.mark.parametrize(
+    ("item", "message"),
+    [
+        ("wod.correlation_length_m=1e-4", "no material 'wod' (known: aluminum, resin, wood)"),
+        ("wood.ra_m=1e-6", "FIELD must be one of roughness_rms_m, correlation_length_m"),
+        ("wood.correlation_length_m=-1", "Texture.correlation_length_m must be > 0"),
+        ("wood.roughness_rms_m=x", "'x' is not a number"),
+        ("woodcorr", "write MATERIAL.FIELD=VALUE"),
+    ],
+)
+def test_bench_texture_refuses_a_bad_texture_item_naming_it(item, message, monkeypatch, capsys):
+    main = _script("bench_texture", monkeypatch).main
+    with pytest.raises(SystemExit):
+        main(["--texture", item])
+    err = capsys.readouterr().err.splitlines()[-1]
+    assert f"--texture {item!r}" in err and message in err
+
+
+def test_bench_texture_sets_a_materials_texture_and_leaves_the_others(monkeypatch):
+    module = _script("bench_texture", monkeypatch)
+    base = module.synth.SynthConfig()
+    cfg = module.with_texture(base, ["wood.correlation_length_m=5e-5"])
+    assert cfg.materials["wood"].texture.correlation_length_m == 5e-5
+    assert cfg.materials["wood"].texture.periodic == base.materials["wood"].texture.periodic
+    assert cfg.materials["resin"] == base.materials["resin"]
+    assert cfg.materials["aluminum"] == base.materials["aluminum"]
