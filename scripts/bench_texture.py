@@ -43,7 +43,7 @@ from scipy import signal
 import shapes
 import synth
 from synth.trial import SAMPLE_RATE_HZ, TrialSpec
-from tactile_synth.validation import int_arg
+from tactile_synth.validation import int_arg, parse_number
 
 BAND_HZ = (20.0, 400.0)
 
@@ -174,13 +174,9 @@ def with_texture(config: synth.SynthConfig, items: list[str]) -> synth.SynthConf
             raise ValueError(
                 f"--texture {item!r}: FIELD must be one of {', '.join(TEXTURE_FIELDS)}"
             )
-        try:
-            number = float(value)
-        except ValueError:
-            raise ValueError(f"--texture {item!r}: {value!r} is not a number") from None
         mat = config.materials[material]
         try:
-            texture = dataclasses.replace(mat.texture, **{field: number})
+            texture = dataclasses.replace(mat.texture, **{field: parse_number(value)})
         except ValueError as exc:
             raise ValueError(f"--texture {item!r}: {exc}") from None
         config = config.with_material(dataclasses.replace(mat, texture=texture))

@@ -175,6 +175,7 @@ def test_bench_texture_reports_the_films_and_the_push_they_read(monkeypatch, tmp
         ("wood.ra_m=1e-6", "FIELD must be one of roughness_rms_m, correlation_length_m"),
         ("wood.correlation_length_m=-1", "Texture.correlation_length_m must be > 0"),
         ("wood.roughness_rms_m=x", "'x' is not a number"),
+        ("wood.roughness_rms_m=1_0e-6", "underscores are not accepted"),
         ("woodcorr", "write MATERIAL.FIELD=VALUE"),
     ],
 )
