@@ -262,6 +262,18 @@ def cmd_picks(args: argparse.Namespace) -> int:
     return 0
 
 
+def _measured_or_failed(
+    config: synth.SynthConfig, trials_per_class: int, seeds: int, where: Path
+) -> dict:
+    """A sweep candidate's metrics, or ``{"failed": why}`` when one of its trials cannot be
+    simulated (MuJoCo diverges at this value with the configuration's time step, or a
+    channel saturates): the sweep reports it and goes on to the next candidate."""
+    try:
+        return measure.measured(config, trials_per_class, seeds, where)
+    except synth.SimulationError as exc:
+        return {"failed": str(exc)}
+
+
 def cmd_sweep(args: argparse.Namespace) -> int:
     base = settings.configured(args.set)
     settings.check_swept(args.only)
@@ -278,6 +290,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         sweep.previous_measurements(out, args.trials_per_class, args.seeds) if args.resume else {}
     )
     rows = []
+    names: list[str] = []  # the metrics' names, from the first candidate measured
     done: dict[str, dict] = {}  # the default configuration recurs in every parameter's sweep
     with tempfile.TemporaryDirectory() as tmp:
         where = Path(tmp) / "grid"
@@ -288,10 +301,12 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                 t0 = time.perf_counter()
                 key = measure.config_key(config)
                 if key not in done:
-                    done[key] = reuse.get(key) or measure.measured(
+                    done[key] = reuse.get(key) or _measured_or_failed(
                         config, args.trials_per_class, args.seeds, where
                     )
-                metrics = done[key]
+                failed = done[key].get("failed")
+                metrics = {} if failed else done[key]
+                names = names or list(metrics)
                 row = sweep.sweep_row(
                     f"{section}.{field}",
                     value,
@@ -301,17 +316,22 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                     args.trials_per_class,
                     args.seeds,
                     key,
+                    failed,
                 )
                 rows.append(row)
                 print(
                     f"{row['parameter']} = {value:g}{' (default)' if row['default'] else ''}: "
-                    + ", ".join(f"{k} {sweep.format_metric(k, metrics[k])}" for k in metrics)
+                    + (
+                        f"not measured: {failed}"
+                        if failed
+                        else ", ".join(f"{k} {sweep.format_metric(k, metrics[k])}" for k in metrics)
+                    )
                     + f"  [{time.perf_counter() - t0:.0f} s"
                     + (", kept from the earlier sweep]" if key in reuse else "]"),
                     flush=True,
                 )
                 if out is not None:  # after every candidate: an interruption keeps them
-                    sweep.write_tables(out, rows, list(metrics), args.seeds)
+                    sweep.write_tables(out, rows, names, args.seeds)
         except KeyboardInterrupt:
             kept = f"; {len(rows)} rows are in {out / 'calibration.json'}" if out else ""
             again = " (add --resume to continue)" if out else ""
@@ -502,6 +522,8 @@ def main(argv: list[str] | None = None) -> int:
         return args.func(args)
     except CalibrationError as exc:
         raise SystemExit(str(exc)) from None
+    except synth.SimulationError as exc:
+        raise SystemExit(f"calibrate.py {args.command}: {exc}") from None
 
 
 if __name__ == "__main__":

@@ -171,6 +171,37 @@ def test_an_interrupted_sweep_keeps_its_rows_and_resumes_where_it_stopped(tmp_pa
     assert calls[8:] == [0.0, 0.005, 0.01, 0.02]
 
 
+def test_a_candidate_that_cannot_be_simulated_is_reported_and_the_sweep_goes_on(
+    tmp_path, monkeypatch
+):
+    calibrate = _calibrate_module()
+    calls = []
+
+    def evaluate(config, trials_per_class, where, seed):
+        calls.append(config.variability.yaw_rad)
+        if config.variability.yaw_rad == 0.01:
+            raise synth.SimulationError("MuJoCo warning mjWARN_BADQACC while simulating x")
+        return _fake_metrics(config)
+
+    monkeypatch.setattr(measure, "evaluate", evaluate)
+    argv = ["sweep", "--only", "variability.yaw_rad", "--out", str(tmp_path)]
+    assert calibrate.main(argv) == 0
+    rows = json.loads((tmp_path / "calibration.json").read_text())
+    assert [r["value"] for r in rows] == [0.0, 0.005, 0.01, 0.02]
+    assert rows[2]["failed"] == "MuJoCo warning mjWARN_BADQACC while simulating x"
+    assert "class_all" not in rows[2] and rows[3]["class_all"] == pytest.approx(0.52)
+    table = (tmp_path / "calibration.md").read_text().splitlines()
+    assert table[4].startswith("| variability.yaw_rad | 0.01 | not measured: MuJoCo warning")
+    assert table[4].count("|") == table[0].count("|")
+    # resumed, the failed candidate is not simulated again (it would fail bit for bit)
+    assert calibrate.main([*argv, "--resume"]) == 0
+    assert calls == [0.0, 0.005, 0.01, 0.02]
+    assert json.loads((tmp_path / "calibration.json").read_text()) == rows
+    # whatif, which measures one configuration, stops with one line naming the trial
+    with pytest.raises(SystemExit, match=r"^calibrate.py whatif: MuJoCo warning mjWARN_BADQACC"):
+        calibrate.main(["whatif", "--set", "variability.yaw_rad=0.01"])
+
+
 def test_sweep_resume_refuses_without_out_and_a_foreign_table(tmp_path, monkeypatch):
     calibrate = _calibrate_module()
 

@@ -78,7 +78,8 @@ def format_metric(key: str, value: float) -> str:
 
 def previous_measurements(out: Path | None, trials_per_class: int, seeds: int) -> dict[str, dict]:
     """``--resume``: the metrics of the rows in ``out/calibration.json`` that were measured
-    with this sweep's trials per class and seeds, by configuration."""
+    with this sweep's trials per class and seeds, by configuration (``{"failed": why}``
+    for a configuration whose simulation failed: it fails again, bit for bit)."""
     if out is None:
         raise CalibrationError("--resume needs --out DIR (the sweep whose rows it keeps)")
     path = out / "calibration.json"
@@ -87,7 +88,9 @@ def previous_measurements(out: Path | None, trials_per_class: int, seeds: int) -
     try:
         rows = json.loads(path.read_text())
         kept = {
-            r["config_sha256"]: {k: r[k] for k in r["metrics"]}
+            r["config_sha256"]: (
+                {"failed": r["failed"]} if r.get("failed") else {k: r[k] for k in r["metrics"]}
+            )
             for r in rows
             if (r["trials_per_class"], r["seeds"]) == (trials_per_class, seeds)
         }
@@ -101,18 +104,22 @@ def previous_measurements(out: Path | None, trials_per_class: int, seeds: int) -
 
 def write_tables(out: Path, rows: list[dict], metrics: list[str], seeds: int) -> None:
     """``out/calibration.json`` (every row, with the names of its metrics) and
-    ``calibration.md`` (the table), each replaced whole."""
+    ``calibration.md`` (the table), each replaced whole. A row whose simulation failed
+    (``failed``: why) has no metrics; the table says why in its first metric's cell."""
     out.mkdir(parents=True, exist_ok=True)
-    table = [{**r, "metrics": metrics} for r in rows]
-    keys = [k for k in metrics if not k.endswith("_sd")]
+    table = [{**r, "metrics": [] if r.get("failed") else metrics} for r in rows]
+    keys = [k for k in metrics if not k.endswith("_sd")] or ["metrics"]
     lines = ["| parameter | value | " + " | ".join(keys) + " |", "|---" * (len(keys) + 2) + "|"]
     for r in rows:
         mark = " (default)" if r["default"] else ""
-        vals = " | ".join(
-            format_metric(k, r[k])
-            + (f" ± {r[k + '_sd']:.3f}" if seeds > 1 and k in SPREAD_KEYS else "")
-            for k in keys
-        )
+        if r.get("failed"):
+            vals = " | ".join([f"not measured: {r['failed']}"] + [""] * (len(keys) - 1))
+        else:
+            vals = " | ".join(
+                format_metric(k, r[k])
+                + (f" ± {r[k + '_sd']:.3f}" if seeds > 1 and k in SPREAD_KEYS else "")
+                for k in keys
+            )
         lines.append(f"| {r['parameter']} | {r['value']:g}{mark} | {vals} |")
     for name, text in (
         ("calibration.json", json.dumps(table, indent=1) + "\n"),
@@ -132,16 +139,19 @@ def sweep_row(
     trials_per_class: int,
     seeds: int,
     config_sha256: str,
+    failed: str | None = None,
 ) -> dict:
     """One row of the sweep's table: the candidate (``SECTION.FIELD`` and its value,
-    whether it is the base's, why its range), its metrics, and what they were measured
-    with (trials per class, dataset seeds, the configuration's identity)."""
+    whether it is the base's, why its range), its metrics (none, and ``failed`` saying
+    why, when its simulation failed), and what they were measured with (trials per
+    class, dataset seeds, the configuration's identity)."""
     return {
         "parameter": parameter,
         "value": value,
         "default": is_default,
         "why": why,
-        **metrics,
+        **({} if failed else metrics),
+        **({"failed": failed} if failed else {}),
         "trials_per_class": trials_per_class,
         "seeds": seeds,
         "config_sha256": config_sha256,
