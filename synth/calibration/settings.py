@@ -103,7 +103,8 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
         "finger",
         "pdms_damping_ratio",
         (0.05, 0.15, 0.2),
-        "damping of the PDMS modes: half a silicone's loss tangent (0.1-0.4)",
+        "damping of the PDMS modes: half a silicone's loss tangent (0.1-0.4); 0.05 diverges "
+        "in a trial at the 0.5 ms step (measure it with motion.timestep_s=0.25e-3)",
     ),
     (
         "pvdf",
@@ -112,7 +113,8 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
         "charge-amplifier high-pass 0.16 / 1.6 / 16 Hz; 88 Hz, inside the texture band, is "
         "the corner of a film read in voltage mode across the piezo-film manual's 10 MOhm "
         "load (the film's 76 pF and some 100 pF of cable and input): the readout is not "
-        "described",
+        "described; at 0.16 Hz the default post-gain saturates the DAQ (size it with "
+        "calibrate.py gain)",
     ),
     (
         "pvdf",
