@@ -176,9 +176,18 @@ def _check_stable(
         for i in unstable if unstable.size else range(len(plans)):
             _roll([plans[i]], datas[:1], config)
     culprit = _describe(plans[unstable[0] if unstable.size else 0].spec)
+    # What holds a diverging integration: the explicit joint springs of the pad's mount
+    # and the contact need a step short against their fastest mode, or more damping.
+    diverged = not warned or "mjWARN_BADQACC" in warned
+    hint = (
+        f" (the integration diverged: a shorter simulator step than motion.timestep_s = "
+        f"{config.motion.timestep_s * 1e3:g} ms, or more damping, may hold it)"
+        if diverged
+        else ""
+    )
     if not warned:
-        raise SimulationError(f"MuJoCo reset the unstable simulation of {culprit}")
-    raise SimulationError(f"MuJoCo warning {', '.join(warned)} while simulating {culprit}")
+        raise SimulationError(f"MuJoCo reset the unstable simulation of {culprit}{hint}")
+    raise SimulationError(f"MuJoCo warning {', '.join(warned)} while simulating {culprit}{hint}")
 
 
 def rollout_chunks(specs: Sequence[TrialSpec]) -> list[list[int]]:

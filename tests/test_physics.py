@@ -629,8 +629,10 @@ def test_an_unstable_trial_that_is_not_the_last_on_its_data_raises(break_it):
     else:  # a 10 ms step: the stiff drive diverges over a few steps
         model.opt.timestep = 0.01
     datas = [mujoco.MjData(plans[1].model)]  # both trials run on one data, in order
-    with pytest.raises(SimulationError, match=r"mjWARN_BADQACC.*seed=3\b"):
+    with pytest.raises(SimulationError, match=r"mjWARN_BADQACC.*seed=3\b") as failed:
         sim._roll(plans, datas, NOMINAL)
+    # the message says what may hold a diverging integration
+    assert "diverged: a shorter simulator step than motion.timestep_s = 0.5 ms" in str(failed.value)
 
 
 def test_line_average_variance_matches_a_simulated_average():
