@@ -232,12 +232,45 @@ def test_sweep_resume_refuses_without_out_and_a_foreign_table(tmp_path, monkeypa
         (["--set", "acquisition.adc_bits=12.5"], "acquisition.adc_bits needs a whole number"),
         (["--set", "pvdf.post_gain=2", "--set", "pvdf.post_gain=3"], "sets pvdf.post_gain twice"),
         (["--set", "pvdf.post_gain=-1"], "--set pvdf.post_gain=-1: PVDF.post_gain must be > 0"),
+        (["--set", "materials.oak.kinetic_friction=1"], "MATERIAL one of resin, wood, aluminum"),
+        (["--set", "materials.wood.friction=1"], "--set must be SECTION.FIELD=VALUE"),
+        (
+            ["--set", "materials.wood.kinetic_friction=-1"],
+            "--set materials.wood.kinetic_friction=-1: FrictionLaw.kinetic must be > 0",
+        ),
+        (
+            [
+                "--set",
+                "materials.wood.kinetic_friction=1",
+                "--set",
+                "materials.wood.kinetic_friction=2",
+            ],
+            "sets materials.wood.kinetic_friction twice",
+        ),
     ],
 )
 def test_whatif_refuses_a_bad_setting_in_one_line(argv, message):
     calibrate = _calibrate_module()
     with pytest.raises(SystemExit, match=re.escape(message)):
         calibrate.main(["whatif", *argv])
+
+
+def test_set_gives_one_material_a_friction_level_of_its_own():
+    """``materials.MATERIAL.kinetic_friction`` moves that material's law alone, its static
+    coefficient in the same ratio, and the others keep the shared law."""
+    base = synth.SynthConfig()
+    config = settings.configured(
+        ["materials.wood.kinetic_friction=0.9", "materials.aluminum.kinetic_friction=1.4"]
+    )
+    shared = base.materials["resin"].friction
+    assert config.materials["resin"].friction == shared
+    for name, mu in (("wood", 0.9), ("aluminum", 1.4)):
+        law = config.materials[name].friction
+        assert law.kinetic == mu
+        assert law.static / law.kinetic == pytest.approx(shared.static / shared.kinetic)
+        assert law.load_exponent == shared.load_exponent
+        assert config.materials[name].texture == base.materials[name].texture
+    assert settings.default_value(config, "materials", "wood.kinetic_friction") == 0.9
 
 
 @pytest.mark.slow

@@ -4,7 +4,9 @@ configurations a command line asks for (``--set SECTION.FIELD=VALUE`` and the sw
 
 Two factors are not configuration fields: :data:`TEXTURE_SCALE` scales every material's
 texture amplitudes (roughness and periodic marks), :data:`MARKS_SCALE` the periodic marks
-alone; :func:`with_value` applies them like any field.
+alone; :func:`with_value` applies them like any field. ``materials.MATERIAL.kinetic_friction``
+sets one material's kinetic friction coefficient (its static one keeps its ratio to it),
+to ask what a friction level of its own per material would change.
 
 Examples
 --------
@@ -12,6 +14,9 @@ Examples
 >>> config = configured(["variability.yaw_rad=0.01", "materials.texture_scale=0.5"])
 >>> config.variability.yaw_rad
 0.01
+>>> law = configured(["materials.wood.kinetic_friction=0.9"]).materials["wood"].friction
+>>> round(law.kinetic, 3), round(law.static, 3)
+(0.9, 1.08)
 >>> try:
 ...     parse_base(["variability.friction_rel=0.3"])
 ... except CalibrationError as exc:
@@ -44,6 +49,8 @@ TEXTURE_SCALE = ("materials", "texture_scale")
 MARKS_SCALE = ("materials", "marks_scale")
 #: The material-wide factors, which are not configuration fields.
 MATERIAL_FACTORS = (TEXTURE_SCALE, MARKS_SCALE)
+#: ``materials.MATERIAL.<this>``: one material's kinetic friction coefficient.
+KINETIC_FRICTION = "kinetic_friction"
 #: Configuration sections whose numeric fields ``--set`` may change.
 SECTIONS = ("finger", "motion", "variability", "strain_gauge", "pvdf", "acquisition")
 
@@ -162,9 +169,26 @@ def scaled_texture(
     return dataclasses.replace(material, texture=scaled)
 
 
+def friction_material(config: SynthConfig, section: str, field: str) -> str | None:
+    """The material whose kinetic friction ``section.field`` names
+    (``materials.MATERIAL.kinetic_friction``), or None."""
+    name, _, rest = field.partition(".")
+    if section == "materials" and rest == KINETIC_FRICTION and name in config.materials:
+        return name
+    return None
+
+
 def with_value(config: SynthConfig, section: str, field: str, value: float) -> SynthConfig:
     """``config`` with ``section.field`` set to ``value`` (a material-wide factor of
-    :data:`MATERIAL_FACTORS` scales every material's texture instead)."""
+    :data:`MATERIAL_FACTORS` scales every material's texture instead, and
+    ``materials.MATERIAL.kinetic_friction`` sets that material's kinetic friction, its
+    static coefficient kept in the same ratio)."""
+    name = friction_material(config, section, field)
+    if name is not None:
+        material = config.materials[name]
+        law = material.friction
+        scaled = dataclasses.replace(law, kinetic=value, static=value * law.static / law.kinetic)
+        return config.with_material(dataclasses.replace(material, friction=scaled))
     if (section, field) in MATERIAL_FACTORS:
         roughness = value if (section, field) == TEXTURE_SCALE else 1.0
         for material in config.materials.values():
@@ -176,6 +200,9 @@ def with_value(config: SynthConfig, section: str, field: str, value: float) -> S
 
 def default_value(config: SynthConfig, section: str, field: str) -> float:
     """The configuration's value of a swept parameter (1 for the material factors)."""
+    name = friction_material(config, section, field)
+    if name is not None:
+        return config.materials[name].friction.kinetic
     if (section, field) in MATERIAL_FACTORS:
         return 1.0
     return getattr(getattr(config, section), field)
@@ -183,14 +210,18 @@ def default_value(config: SynthConfig, section: str, field: str) -> float:
 
 def parse_set(items: list[str] | None) -> dict[tuple[str, str], float]:
     """``--set SECTION.FIELD=VALUE`` items as ``{(section, field): value}``: a numeric
-    field of a configuration section (or ``materials.texture_scale`` or
-    ``materials.marks_scale``), each set once; none gives an empty table."""
+    field of a configuration section (or ``materials.texture_scale``,
+    ``materials.marks_scale`` or ``materials.MATERIAL.kinetic_friction``), each set once;
+    none gives an empty table."""
     defaults = SynthConfig()
     out: dict[tuple[str, str], float] = {}
     for item in items or ():
         name, sep, text = item.partition("=")
         section, _, field = name.partition(".")
-        known = (section, field) in MATERIAL_FACTORS or (
+        special = (section, field) in MATERIAL_FACTORS or friction_material(
+            defaults, section, field
+        )
+        known = special or (
             section in SECTIONS
             and field in {f.name for f in dataclasses.fields(getattr(defaults, section))}
             and type(getattr(getattr(defaults, section), field)) in (int, float)
@@ -198,8 +229,9 @@ def parse_set(items: list[str] | None) -> dict[tuple[str, str], float]:
         if not sep or not known:
             raise CalibrationError(
                 "--set must be SECTION.FIELD=VALUE with a numeric field of "
-                f"{', '.join(SECTIONS)} (or materials.texture_scale or .marks_scale); "
-                f"got {item!r}"
+                f"{', '.join(SECTIONS)} (or materials.texture_scale, .marks_scale or "
+                f".MATERIAL.kinetic_friction with MATERIAL one of "
+                f"{', '.join(defaults.materials)}); got {item!r}"
             )
         try:
             value = parse_number(text)
@@ -209,9 +241,7 @@ def parse_set(items: list[str] | None) -> dict[tuple[str, str], float]:
             raise CalibrationError(f"--set {name} needs a finite number; got {text!r}")
         if (section, field) in out:
             raise CalibrationError(f"--set sets {name} twice")
-        if (section, field) not in MATERIAL_FACTORS and type(
-            getattr(getattr(defaults, section), field)
-        ) is int:
+        if not special and type(getattr(getattr(defaults, section), field)) is int:
             if not value.is_integer():
                 raise CalibrationError(f"--set {name} needs a whole number; got {text!r}")
             value = int(value)
