@@ -42,7 +42,7 @@ source gives; nothing is tuned per shape, material or class.
         of the configuration the sweep starts from, as whatif's does): generates the paper
         grid, runs the leave-one-out diagnosis and AFOP-ML's feature selection on the
         generalisation protocols' training splits, and prints (and writes DIR/calibration.md
-        and .json) the numbers the defaults were chosen by: strain-gauge shape accuracy
+        and .json) what each value changes: strain-gauge shape accuracy
         (target >= 0.95, every shape >= 0.85), material accuracy per channel group, and the
         PVDF share of the selected features and the median D on cross-shape and
         cross-material training splits (the paper's real finger: 21 % and 50 %, D about 6
@@ -56,7 +56,9 @@ source gives; nothing is tuned per shape, material or class.
         (``pvdf_share_paper_d_*``).
         DIR's tables are rewritten after every candidate, so an interrupted sweep keeps
         the rows it measured; ``--resume`` reuses the rows of DIR's table measured with
-        the same trials per class, seeds and configuration, and measures the rest.
+        the same trials per class, seeds and configuration, and measures the rest. A
+        candidate that cannot be simulated (MuJoCo diverges, a channel saturates) gets a
+        row saying why, naming the trial, and the sweep goes on.
 
     python3 scripts/calibrate.py update
         Not a calibration: the surface update period (Motion.surface_update_s, a numerical
@@ -81,7 +83,9 @@ source gives; nothing is tuned per shape, material or class.
                                         [--keep DIR]
         Not a calibration: one configuration with any numeric field set to any value its
         dataclass accepts, inside or outside a cited range (``materials.texture_scale``
-        as in the sweep; ``materials.marks_scale`` scales the periodic marks alone), to
+        as in the sweep; ``materials.marks_scale`` scales the periodic marks alone;
+        ``materials.MATERIAL.kinetic_friction`` gives one material a friction level of
+        its own, its static coefficient in the same ratio), to
         measure what the real finger would have to be for a target to be met; without
         ``--set``, the defaults. Prints the sweep's metrics over the seeds and, with
         ``--closed-set N``, AFOP-ML's closed-set 1-shot row over N episodes on a
