@@ -176,8 +176,8 @@ def _check_stable(
         for i in unstable if unstable.size else range(len(plans)):
             _roll([plans[i]], datas[:1], config)
     culprit = _describe(plans[unstable[0] if unstable.size else 0].spec)
-    # What holds a diverging integration: the explicit joint springs of the pad's mount
-    # and the contact need a step short against their fastest mode, or more damping.
+    # MuJoCo integrates the joint springs of the pad's mount explicitly: a step long
+    # against their fastest mode diverges unless their damping holds it.
     diverged = not warned or "mjWARN_BADQACC" in warned
     hint = (
         f" (the integration diverged: a shorter simulator step than motion.timestep_s = "

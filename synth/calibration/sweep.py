@@ -150,7 +150,7 @@ def sweep_row(
         "value": value,
         "default": is_default,
         "why": why,
-        **({} if failed else metrics),
+        **metrics,
         **({"failed": failed} if failed else {}),
         "trials_per_class": trials_per_class,
         "seeds": seeds,
