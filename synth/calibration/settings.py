@@ -218,8 +218,8 @@ def parse_set(items: list[str] | None) -> dict[tuple[str, str], float]:
     for item in items or ():
         name, sep, text = item.partition("=")
         section, _, field = name.partition(".")
-        special = (section, field) in MATERIAL_FACTORS or friction_material(
-            defaults, section, field
+        special = (section, field) in MATERIAL_FACTORS or (
+            friction_material(defaults, section, field) is not None
         )
         known = special or (
             section in SECTIONS
