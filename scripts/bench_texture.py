@@ -15,9 +15,11 @@ the slowest to the fastest speed on every material. Then the same band's RMS of 
 texture's push on the skin (the tangential force ``-slope * F_n`` the simulated contact
 feels, ``Trial.truth["texture_push_n"]``) on the same segments, and the films' RMS per
 unit of it: the input the surface gives and what the finger's mechanics make of it.
-``--texture wood.correlation_length_m=50e-6`` measures a material with another value of
-its random roughness (``roughness_rms_m`` or ``correlation_length_m``), e.g. a free
-choice at either end of its plausible range.
+``--set SECTION.FIELD=VALUE`` measures another configuration (as ``calibrate.py whatif``),
+at the films' post-gain ``calibrate.py gain`` sizes for it unless ``--set
+pvdf.post_gain=G`` holds one. ``--texture wood.correlation_length_m=50e-6`` measures a
+material with another value of its random roughness (``roughness_rms_m`` or
+``correlation_length_m``), e.g. a free choice at either end of its plausible range.
 
     python3 scripts/bench_texture.py --transfer [40 70 100 170 250] [--seeds 3]
 
@@ -217,12 +219,16 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--force and --speeds must be > 0 and --margin-mm >= 0")
     config = synth.SynthConfig()
     if args.set:
-        from synth.calibration.settings import CalibrationError, configured
+        from synth.calibration.gain import at_sized_gain
+        from synth.calibration.settings import CalibrationError, configured, holds_gain
 
         try:
             config = configured(args.set)
-        except CalibrationError as exc:
-            raise SystemExit(str(exc)) from None
+            if not holds_gain(args.set):  # the films' gain sized for them, as whatif does
+                config = at_sized_gain(config)
+        except (CalibrationError, synth.SimulationError) as exc:
+            raise SystemExit(f"--set: {exc}") from None
+        print(f"films' post-gain {config.pvdf.post_gain:g}")
     if args.texture:
         try:
             config = with_texture(config, args.texture)

@@ -54,6 +54,9 @@ source gives; nothing is tuned per shape, material or class.
         paper's shares are of its own D, so the table also gives the share of each split's
         first 6 (cross-shape) and 12 (cross-material) ranked features and their gap
         (``pvdf_share_paper_d_*``).
+        Each candidate is measured at the films' post-gain ``gain`` sizes for it (a lab
+        sizes its amplifier for the finger it builds; the table gives it), unless ``--set
+        pvdf.post_gain=G`` holds one for all.
         DIR's tables are rewritten after every candidate, so an interrupted sweep keeps
         the rows it measured; ``--resume`` reuses the rows of DIR's table measured with
         the same trials per class, seeds and configuration, and measures the rest. A
@@ -93,7 +96,9 @@ source gives; nothing is tuned per shape, material or class.
         and t-SNE indicators; ``--closed-set-seeds M`` measures that row on the datasets
         of seeds 0..M-1 and adds each figure's mean and standard deviation over them.
         ``--keep DIR`` keeps the measured dataset of seed 0 in DIR, a new directory (for
-        ``picks`` or ``tactile-synth diagnose``). The defaults never come from it.
+        ``picks`` or ``tactile-synth diagnose``). The films' post-gain is the one ``gain``
+        sizes for the configuration unless ``--set pvdf.post_gain=G`` sets it. The
+        defaults never come from it.
 
 The sweep simulates 36 classes x ``--trials-per-class`` trials per candidate and seed
 (720 at the default of 20); at 30 trials per class and three seeds a candidate costs
@@ -278,8 +283,23 @@ def _measured_or_failed(
         return {"failed": str(exc)}
 
 
+def _at_own_gain(config: synth.SynthConfig, sized: dict) -> synth.SynthConfig | str:
+    """The candidate at the post-gain ``gain``'s rule sizes for it, or why none could be
+    sized (its trials at the grid's corner diverge, or no round gain fits the DAQ).
+    ``sized`` keeps each configuration's answer: the base recurs in every parameter's
+    sweep."""
+    key = measure.config_key(config)
+    if key not in sized:
+        try:
+            sized[key] = gain.at_sized_gain(config)
+        except (CalibrationError, synth.SimulationError) as exc:
+            sized[key] = f"no post-gain could be sized for it: {exc}"
+    return sized[key]
+
+
 def cmd_sweep(args: argparse.Namespace) -> int:
     base = settings.configured(args.set)
+    hold_gain = settings.holds_gain(args.set)
     settings.check_swept(args.only)
     held = settings.parse_base(args.base)
     for (section, field), value in held.items():
@@ -296,6 +316,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     rows = []
     names: list[str] = []  # the metrics' names, from the first candidate measured
     done: dict[str, dict] = {}  # the default configuration recurs in every parameter's sweep
+    sized: dict[str, synth.SynthConfig | str] = {}
     with tempfile.TemporaryDirectory() as tmp:
         where = Path(tmp) / "grid"
         try:
@@ -303,7 +324,13 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                 base, args.only, held
             ):
                 t0 = time.perf_counter()
-                key = measure.config_key(config)
+                own = config if hold_gain else _at_own_gain(config, sized)
+                if isinstance(own, str):  # no gain: measured at none
+                    key, post_gain = measure.config_key(config), None
+                    done[key] = {"failed": own}
+                else:
+                    config, post_gain = own, own.pvdf.post_gain
+                    key = measure.config_key(config)
                 if key not in done:
                     done[key] = reuse.get(key) or _measured_or_failed(
                         config, args.trials_per_class, args.seeds, where
@@ -321,10 +348,12 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                     args.seeds,
                     key,
                     failed,
+                    post_gain=post_gain,
                 )
                 rows.append(row)
                 print(
-                    f"{row['parameter']} = {value:g}{' (default)' if row['default'] else ''}: "
+                    f"{row['parameter']} = {value:g}{' (default)' if row['default'] else ''}"
+                    + (f" (post-gain {post_gain:g}): " if post_gain else ": ")
                     + (
                         f"not measured: {failed}"
                         if failed
@@ -379,6 +408,8 @@ def cmd_whatif(args: argparse.Namespace) -> int:
     from synth.simulator import SaturatedTrialError
 
     config = settings.configured(args.set)
+    if not settings.holds_gain(args.set):
+        config = gain.at_sized_gain(config)
     keep = None
     if args.keep is not None:
         keep = Path(args.keep)
@@ -392,7 +423,9 @@ def cmd_whatif(args: argparse.Namespace) -> int:
     print(
         "what-if configuration: "
         + (", ".join(args.set) if args.set else "the defaults")
-        + f" (PVDF amplifier noise {1e3 * noise[0]:.3g} mV RMS at the DAQ)",
+        + f" (PVDF post-gain {config.pvdf.post_gain:g}"
+        + (", as set" if settings.holds_gain(args.set) else ", sized by the gain rule")
+        + f"; amplifier noise {1e3 * noise[0]:.3g} mV RMS at the DAQ)",
         flush=True,
     )
     with tempfile.TemporaryDirectory() as tmp:

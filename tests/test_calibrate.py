@@ -25,6 +25,19 @@ from tests.synthetic_data import make_dataset
 ROOT = Path(__file__).resolve().parents[1]
 
 
+@pytest.fixture(autouse=True)
+def _gain_rule_without_simulation(monkeypatch):
+    """The sweep and whatif size each configuration's post-gain by simulating the grid's
+    corner; here they get the defaults' gain without it (the rule itself is measured by
+    the gain command's test, the sizing per candidate by a test that fakes it)."""
+    default = synth.SynthConfig().pvdf.post_gain
+
+    def at_default(config):
+        return dataclasses.replace(config, pvdf=dataclasses.replace(config.pvdf, post_gain=default))
+
+    monkeypatch.setattr(gain, "at_sized_gain", at_default)
+
+
 def _calibrate_module():
     spec = importlib.util.spec_from_file_location(
         "calibrate_script", ROOT / "scripts" / "calibrate.py"
@@ -191,7 +204,7 @@ def test_a_candidate_that_cannot_be_simulated_is_reported_and_the_sweep_goes_on(
     assert rows[2]["failed"] == "MuJoCo warning mjWARN_BADQACC while simulating x"
     assert "class_all" not in rows[2] and rows[3]["class_all"] == pytest.approx(0.52)
     table = (tmp_path / "calibration.md").read_text().splitlines()
-    assert table[4].startswith("| variability.yaw_rad | 0.01 | not measured: MuJoCo warning")
+    assert table[4].startswith("| variability.yaw_rad | 0.01 | 1 | not measured: MuJoCo warning")
     assert table[4].count("|") == table[0].count("|")
     # resumed, the failed candidate is not simulated again (it would fail bit for bit)
     assert calibrate.main([*argv, "--resume"]) == 0
@@ -200,6 +213,55 @@ def test_a_candidate_that_cannot_be_simulated_is_reported_and_the_sweep_goes_on(
     # whatif, which measures one configuration, stops with one line naming the trial
     with pytest.raises(SystemExit, match=r"^calibrate.py whatif: MuJoCo warning mjWARN_BADQACC"):
         calibrate.main(["whatif", "--set", "variability.yaw_rad=0.01"])
+
+
+def test_each_candidate_is_measured_at_the_post_gain_its_own_films_size(tmp_path, monkeypatch):
+    """A readout with smaller transients gets a larger gain, one whose transients no gain
+    fits is reported unmeasured; ``--set pvdf.post_gain`` holds the gain for all; whatif
+    sizes its configuration's gain alike and says so."""
+    calibrate = _calibrate_module()
+    sized, seen = [], []
+    per_ohm = {1e9: 0.5, 100e6: 1.0, 10e6: 2.0}
+
+    def sized_gain(config):
+        sized.append(config.pvdf.feedback_resistance_ohm)
+        if config.pvdf.feedback_resistance_ohm not in per_ohm:
+            raise CalibrationError("no post-gain from 0.1 up keeps the worst PVDF transient")
+        return 1.0, per_ohm[config.pvdf.feedback_resistance_ohm]
+
+    def evaluate(config, trials_per_class, where, seed):
+        seen.append((config.pvdf.feedback_resistance_ohm, config.pvdf.post_gain))
+        return _fake_metrics(config)
+
+    monkeypatch.undo()  # the real rule, over a faked sizing
+    monkeypatch.setattr(gain, "sized_gain", sized_gain)
+    monkeypatch.setattr(measure, "evaluate", evaluate)
+    argv = ["sweep", "--only", "pvdf.feedback_resistance_ohm", "--out", str(tmp_path)]
+    assert calibrate.main(argv) == 0
+    rows = json.loads((tmp_path / "calibration.json").read_text())
+    assert [(r["value"], r.get("post_gain")) for r in rows] == [
+        (1e9, 0.5),
+        (100e6, 1.0),
+        (10e6, 2.0),
+        (1.8e6, None),
+    ]
+    assert seen == [(1e9, 0.5), (100e6, 1.0), (10e6, 2.0)]
+    assert rows[3]["failed"].startswith("no post-gain could be sized for it: no post-gain from")
+    table = (tmp_path / "calibration.md").read_text().splitlines()
+    assert table[0].startswith("| parameter | value | post-gain | class_all |")
+    assert table[4].startswith("| pvdf.feedback_resistance_ohm | 1e+07 | 2 | 0.505 |")
+    assert table[5].startswith("| pvdf.feedback_resistance_ohm | 1.8e+06 |  | not measured: no")
+    # resumed: every candidate is sized again (cheap), none measured again
+    assert calibrate.main([*argv, "--resume"]) == 0
+    assert len(seen) == 3 and len(sized) == 8
+    # held: every candidate at the gain --set gives, nothing sized
+    seen.clear()
+    assert calibrate.main([*argv, "--set", "pvdf.post_gain=2"]) == 0
+    assert {g for _, g in seen} == {2.0} and len(seen) == 4 and len(sized) == 8
+    assert calibrate.main(["whatif", "--set", "pvdf.feedback_resistance_ohm=1e9"]) == 0
+    assert seen[-1] == (1e9, 0.5)
+    with pytest.raises(SystemExit, match=r"^no post-gain from 0.1 up keeps the worst PVDF"):
+        calibrate.main(["whatif", "--set", "pvdf.feedback_resistance_ohm=1.8e6"])
 
 
 def test_sweep_resume_refuses_without_out_and_a_foreign_table(tmp_path, monkeypatch):
@@ -368,7 +430,7 @@ def test_whatif_evaluates_the_set_configuration_over_every_seed(monkeypatch, cap
     assert config.materials["resin"].texture.roughness_rms_m == resin.roughness_rms_m * 0.5
     assert not closed  # only with --closed-set
     out = capsys.readouterr().out
-    assert "PVDF amplifier noise 30.2 mV RMS at the DAQ" in out
+    assert "(PVDF post-gain 2, as set; amplifier noise 30.2 mV RMS at the DAQ)" in out
     assert "pvdf_share_gap -0.300" in out
     assert calibrate.main([*argv, "--closed-set", "50"]) == 0
     assert [(e, s) for _, e, s in closed] == [(50, 0)]

@@ -58,6 +58,15 @@ def sized_gain(config: SynthConfig) -> tuple[float, float]:
     return per_gain, max(fits)
 
 
+def at_sized_gain(config: SynthConfig) -> SynthConfig:
+    """``config`` with the post-gain :func:`sized_gain` sizes for it: a lab sizes its
+    amplifier for the finger it builds, so a configuration whose films give other
+    transients (another readout, carrier or mount) is measured at its own gain, not
+    saturated or left in the DAQ's floor by the defaults'."""
+    _, best = sized_gain(config)
+    return dataclasses.replace(config, pvdf=dataclasses.replace(config.pvdf, post_gain=best))
+
+
 #: Young's modulus of the films' polyester carrier (PET film: 4-5 GPa).
 CARRIER_MODULUS_PA = 4.5e9
 #: Carrier thicknesses ``carrier`` reports by default: the standard polyester film

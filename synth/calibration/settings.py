@@ -260,6 +260,17 @@ def configured(items: list[str] | None) -> SynthConfig:
     return config
 
 
+#: ``--set pvdf.post_gain=G`` holds the films' post-gain at G; without it the sweep,
+#: whatif and the texture bench size it for each configuration
+#: (:func:`synth.calibration.gain.at_sized_gain`).
+POST_GAIN = ("pvdf", "post_gain")
+
+
+def holds_gain(items: list[str] | None) -> bool:
+    """Whether the ``--set`` items fix the films' post-gain (:data:`POST_GAIN`)."""
+    return POST_GAIN in parse_set(items)
+
+
 def parse_base(items: list[str] | None) -> dict[tuple[str, str], float]:
     """``--base SECTION.FIELD=VALUE`` items as ``{(section, field): value}``, each naming a
     swept parameter once and a value inside the range its candidates span (its cited

@@ -109,7 +109,10 @@ def write_tables(out: Path, rows: list[dict], metrics: list[str], seeds: int) ->
     out.mkdir(parents=True, exist_ok=True)
     table = [{**r, "metrics": [] if r.get("failed") else metrics} for r in rows]
     keys = [k for k in metrics if not k.endswith("_sd")] or ["metrics"]
-    lines = ["| parameter | value | " + " | ".join(keys) + " |", "|---" * (len(keys) + 2) + "|"]
+    lines = [
+        "| parameter | value | post-gain | " + " | ".join(keys) + " |",
+        "|---" * (len(keys) + 3) + "|",
+    ]
     for r in rows:
         mark = " (default)" if r["default"] else ""
         if r.get("failed"):
@@ -120,7 +123,8 @@ def write_tables(out: Path, rows: list[dict], metrics: list[str], seeds: int) ->
                 + (f" ± {r[k + '_sd']:.3f}" if seeds > 1 and k in SPREAD_KEYS else "")
                 for k in keys
             )
-        lines.append(f"| {r['parameter']} | {r['value']:g}{mark} | {vals} |")
+        gain = f"{r['post_gain']:g}" if r.get("post_gain") is not None else ""
+        lines.append(f"| {r['parameter']} | {r['value']:g}{mark} | {gain} | {vals} |")
     for name, text in (
         ("calibration.json", json.dumps(table, indent=1) + "\n"),
         ("calibration.md", "\n".join(lines) + "\n"),
@@ -140,16 +144,18 @@ def sweep_row(
     seeds: int,
     config_sha256: str,
     failed: str | None = None,
+    post_gain: float | None = None,
 ) -> dict:
     """One row of the sweep's table: the candidate (``SECTION.FIELD`` and its value,
     whether it is the base's, why its range), its metrics (none, and ``failed`` saying
-    why, when its simulation failed), and what they were measured with (trials per
-    class, dataset seeds, the configuration's identity)."""
+    why, when its simulation failed), and what they were measured with (the films'
+    post-gain, trials per class, dataset seeds, the configuration's identity)."""
     return {
         "parameter": parameter,
         "value": value,
         "default": is_default,
         "why": why,
+        **({} if post_gain is None else {"post_gain": post_gain}),
         **metrics,
         **({"failed": failed} if failed else {}),
         "trials_per_class": trials_per_class,
