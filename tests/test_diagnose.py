@@ -359,6 +359,16 @@ def test_steady_stretches_keep_clear_of_the_edges_and_score_the_material():
     assert stretch == slice(501, 1500)
     report = steady.steady_diagnosis(np.array(signals), np.array(material))
     assert report["scored"] == 24 and report["left_out"] == 0
+    assert report["left_out_by_material"] == {"aluminum": 0, "resin": 0, "wood": 0}
     assert report["material_accuracy"]["pvdf"] == 1.0
     assert report["material_accuracy"]["sg"] < 0.7
     assert set(report["texture_band_rms_v"]) == {"resin", "wood", "aluminum"}
+    assert "24 trials, 0 without a steady stretch):" in steady.summary_lines(report, None)[0]
+    # wood's films ring at the wall threshold all along two trials: no steady stretch there
+    for i in (1, 4):
+        signals[i][:2, 300:1700] += 0.5 * np.sign(np.sin(2 * np.pi * 5 * t[300:1700]))
+    report = steady.steady_diagnosis(np.array(signals), np.array(material))
+    assert report["scored"] == 22 and report["left_out"] == 2
+    assert report["left_out_by_material"] == {"aluminum": 0, "resin": 0, "wood": 2}
+    line = steady.summary_lines(report, None)[0]
+    assert line.endswith("22 trials, 2 without a steady stretch: aluminum 0, resin 0, wood 2):")

@@ -88,8 +88,11 @@ def steady_features(signals: np.ndarray, stretch: slice) -> dict[str, np.ndarray
 
 def steady_diagnosis(signals: np.ndarray, material: np.ndarray) -> dict[str, Any]:
     """The steady-sliding report of a dataset's ``signals`` ``(n, 4, 2000)`` with their
-    ``material`` labels: ``{"scored", "left_out", "material_accuracy": {group: acc},
-    "texture_band_rms_v": {material: mean films' RMS}, "chance"}``."""
+    ``material`` labels: ``{"scored", "left_out", "left_out_by_material": {material:
+    count}, "material_accuracy": {group: acc}, "texture_band_rms_v": {material: mean films'
+    RMS}, "chance"}``. The trials left out are counted per material: a material whose
+    films ring harder while sliding reaches the wall threshold more often, loses more
+    steady stretches, and so is scored on fewer trials than the others."""
     from .nearest import loo_nearest, loo_score
 
     material = np.asarray(material)
@@ -105,6 +108,10 @@ def steady_diagnosis(signals: np.ndarray, material: np.ndarray) -> dict[str, Any
         "edge_gap_s": EDGE_GAP_S,
         "scored": len(rows),
         "left_out": int(len(signals) - len(rows)),
+        "left_out_by_material": {
+            str(m): int(np.sum(material == m)) - int(np.sum(material[rows] == m))
+            for m in np.unique(material)
+        },
         "material_accuracy": None,
         "chance": None,
         "texture_band_rms_v": {},
@@ -135,7 +142,13 @@ def summary_lines(report: dict[str, Any] | None, whole: dict[str, float | None] 
     acc = report["material_accuracy"]
     lines = [
         f"material 1-NN on steady sliding (>= {report['edge_gap_s']:g} s from any wall; "
-        f"{report['scored']} trials, {report['left_out']} without a steady stretch):",
+        f"{report['scored']} trials, {report['left_out']} without a steady stretch"
+        + (
+            ": " + ", ".join(f"{m} {n}" for m, n in report["left_out_by_material"].items())
+            if report["left_out"] and report.get("left_out_by_material")
+            else ""
+        )
+        + "):",
     ]
     for group in ("all", "sg", "pvdf"):
         w = None if whole is None else whole.get(group)
