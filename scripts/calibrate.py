@@ -29,7 +29,7 @@ source gives; nothing is tuned per shape, material or class.
     python3 scripts/calibrate.py carrier [--thickness-m T ...]
         The films' polyester carrier, which the finger's description does not give: for
         each carrier thickness (default: the standard polyester stocks from 23 um to the
-        laminated elements' 125 um; the defaults assume 36 um) the neutral-axis offset
+        laminated elements' 125 um; the defaults assume 75 um) the neutral-axis offset
         and shear coupling it gives the films (:func:`synth.sensors.film_on_carrier`),
         the post-gain ``gain`` sizes for them, and the ``whatif --set`` options that
         measure that film.

@@ -115,7 +115,7 @@ def film_on_carrier(
 ) -> tuple[float, float]:
     """``(neutral_axis_offset_m, shear_strain_per_n)`` of ``pvdf``'s film bonded on a
     carrier of ``carrier_thickness_m`` and ``carrier_modulus_pa``: the derivation of
-    :class:`synth.config.PVDF`'s two defaults (rounded from a 36 um polyester carrier).
+    :class:`synth.config.PVDF`'s two defaults (rounded from a 75 um polyester carrier).
 
     The laminate bends about the height where the layers' first moments of ``E t``
     balance; the film's charge follows the strain at its mid-plane, ``e`` from that
