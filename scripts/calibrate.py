@@ -36,10 +36,12 @@ source gives; nothing is tuned per shape, material or class.
     python3 scripts/calibrate.py sweep [--trials-per-class 20] [--seeds 1]
                                        [--only SECTION.FIELD] [--base SECTION.FIELD=VALUE]
                                        [--set SECTION.FIELD=VALUE] [--out DIR [--resume]]
-        Each global parameter of SWEEP over its cited range (one at a time, the others at
-        their defaults, or at the values ``--base`` sets, each within its parameter's cited
-        range, to see how two parameters act together; ``--set`` changes any numeric field
-        of the configuration the sweep starts from, as whatif's does): generates the paper
+        Each global parameter of SWEEP over its cited range, and each material's surface
+        figures (``materials.MATERIAL.FIELD``) over their measured ranges or a free
+        choice's plausible one (one at a time, the others at their defaults, or at the
+        values ``--base`` sets, each within its parameter's cited range, to see how two
+        parameters act together; ``--set`` changes any numeric field of the
+        configuration the sweep starts from, as whatif's does): generates the paper
         grid, runs the leave-one-out diagnosis and AFOP-ML's feature selection on the
         generalisation protocols' training splits, and prints (and writes DIR/calibration.md
         and .json) what each value changes: strain-gauge shape accuracy
@@ -88,7 +90,9 @@ source gives; nothing is tuned per shape, material or class.
         dataclass accepts, inside or outside a cited range (``materials.texture_scale``
         as in the sweep; ``materials.marks_scale`` scales the periodic marks alone;
         ``materials.MATERIAL.kinetic_friction`` gives one material a friction level of
-        its own, its static coefficient in the same ratio), to
+        its own, its static coefficient in the same ratio; ``materials.MATERIAL.FIELD``
+        with FIELD ``roughness_rms_m``, ``correlation_length_m`` or ``mark_amplitude_m``
+        one material's surface), to
         measure what the real finger would have to be for a target to be met; without
         ``--set``, the defaults. Prints the sweep's metrics over the seeds and, with
         ``--closed-set N``, AFOP-ML's closed-set 1-shot row over N episodes on a

@@ -335,6 +335,50 @@ def test_set_gives_one_material_a_friction_level_of_its_own():
     assert settings.default_value(config, "materials", "wood.kinetic_friction") == 0.9
 
 
+def test_set_gives_one_material_a_surface_of_its_own_and_the_sweep_spans_them(tmp_path):
+    """``materials.MATERIAL.roughness_rms_m`` / ``.correlation_length_m`` /
+    ``.mark_amplitude_m`` move that material's surface alone (the mark's wavelength and the
+    friction kept); the sweep spans each material's measured range or free choice, its
+    default inside; a material with other than one mark is refused by name."""
+    base = synth.SynthConfig()
+    config = settings.configured(
+        [
+            "materials.resin.correlation_length_m=20e-6",
+            "materials.resin.mark_amplitude_m=2e-6",
+            "materials.wood.roughness_rms_m=1e-5",
+        ]
+    )
+    resin, wood = config.materials["resin"], config.materials["wood"]
+    assert resin.texture.correlation_length_m == 20e-6
+    assert resin.texture.roughness_rms_m == base.materials["resin"].texture.roughness_rms_m
+    (mark,) = resin.texture.periodic
+    assert mark.amplitude_m == 2e-6
+    assert mark.wavelength_m == base.materials["resin"].texture.periodic[0].wavelength_m
+    assert wood.texture.roughness_rms_m == 1e-5
+    assert wood.texture.periodic == base.materials["wood"].texture.periodic
+    assert config.materials["aluminum"] == base.materials["aluminum"]
+    assert resin.friction == base.materials["resin"].friction
+    assert settings.default_value(config, "materials", "resin.mark_amplitude_m") == 2e-6
+    swept = {f"{s}.{f}": values for s, f, values, _ in settings.SWEEP}
+    for name in ("resin", "wood"):
+        for field in settings.TEXTURE_FIELDS:
+            values = swept[f"materials.{name}.{field}"]
+            default = settings.default_value(base, "materials", f"{name}.{field}")
+            assert min(values) < default < max(values) and default in values
+    rows = list(sweep.candidates(base, ["materials.wood.mark_amplitude_m"]))
+    assert [(v, d) for _, _, v, _, d, _ in rows] == [(2e-6, False), (4e-6, True), (6e-6, False)]
+    assert rows[2][5].materials["wood"].texture.periodic[0].amplitude_m == 6e-6
+    bare = dataclasses.replace(
+        base.materials["resin"], texture=dataclasses.replace(resin.texture, periodic=())
+    )
+    with pytest.raises(CalibrationError, match=r"^materials.resin.mark_amplitude_m: resin has 0"):
+        settings.with_value(base.with_material(bare), "materials", "resin.mark_amplitude_m", 1e-6)
+    with pytest.raises(CalibrationError, match=r"^--set must be SECTION.FIELD=VALUE .* FIELD one"):
+        settings.parse_set(["materials.resin.wavelength_m=1e-4"])
+    with pytest.raises(CalibrationError, match=r"^--set materials.wood.correlation_length_m=-1: "):
+        settings.configured(["materials.wood.correlation_length_m=-1"])
+
+
 @pytest.mark.slow
 def test_gain_sizes_the_default_post_gain_and_any_configurations(capsys):
     """The default post-gain is the one the script sizes; a film carrier that multiplies

@@ -6,7 +6,10 @@ Two factors are not configuration fields: :data:`TEXTURE_SCALE` scales every mat
 texture amplitudes (roughness and periodic marks), :data:`MARKS_SCALE` the periodic marks
 alone; :func:`with_value` applies them like any field. ``materials.MATERIAL.kinetic_friction``
 sets one material's kinetic friction coefficient (its static one keeps its ratio to it),
-to ask what a friction level of its own per material would change.
+to ask what a friction level of its own per material would change;
+``materials.MATERIAL.roughness_rms_m``, ``.correlation_length_m`` and
+``.mark_amplitude_m`` set one material's surface, whose measured ranges and free choices
+the sweep spans.
 
 Examples
 --------
@@ -51,6 +54,11 @@ MARKS_SCALE = ("materials", "marks_scale")
 MATERIAL_FACTORS = (TEXTURE_SCALE, MARKS_SCALE)
 #: ``materials.MATERIAL.<this>``: one material's kinetic friction coefficient.
 KINETIC_FRICTION = "kinetic_friction"
+#: ``materials.MATERIAL.<this>``: one material's surface, the random roughness's RMS and
+#: correlation length and its periodic mark's amplitude (a material with one mark).
+TEXTURE_FIELDS = ("roughness_rms_m", "correlation_length_m", "mark_amplitude_m")
+#: Every ``materials.MATERIAL.<field>`` a setting may name.
+MATERIAL_FIELDS = (KINETIC_FRICTION, *TEXTURE_FIELDS)
 #: Configuration sections whose numeric fields ``--set`` may change.
 SECTIONS = ("finger", "motion", "variability", "strain_gauge", "pvdf", "acquisition")
 
@@ -144,6 +152,61 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
         "irregularity of the ridge spacing: 0 a regular comb, up to 0.4 (ridges keep order)",
     ),
     (
+        "materials",
+        "resin.roughness_rms_m",
+        (1.09e-6, 3.3e-6, 5.55e-6),
+        "SLA prints' measured Ra 0.87-4.44 um (Rq = 1.25 Ra; the middle the default)",
+    ),
+    (
+        "materials",
+        "resin.correlation_length_m",
+        (20e-6, 40e-6, 85e-6),
+        "not measured: a free choice of the order of the laser spot, 20-85 um",
+    ),
+    (
+        "materials",
+        "resin.mark_amplitude_m",
+        (0.5e-6, 1e-6, 2e-6),
+        "the laser raster's depth, not measured: a free choice of 0.5-2 um, under the face's Ra",
+    ),
+    (
+        "materials",
+        "wood.roughness_rms_m",
+        (3.75e-6, 6.9e-6, 10e-6),
+        "sanded beech's measured Ra 3-8 um from P150 to P60 grit (the middle the default)",
+    ),
+    (
+        "materials",
+        "wood.correlation_length_m",
+        (50e-6, 120e-6, 200e-6),
+        "not measured: a free choice of the order of beech's vessels and fibres, 50-200 um",
+    ),
+    (
+        "materials",
+        "wood.mark_amplitude_m",
+        (2e-6, 4e-6, 6e-6),
+        "the growth rings' relief, a free choice within sanded wood's waviness of a few um",
+    ),
+    (
+        "materials",
+        "aluminum.correlation_length_m",
+        (5e-6, 15e-6, 30e-6),
+        "not measured: a free choice of the order of the cutting edge's own marks, 5-30 um",
+    ),
+    (
+        "finger",
+        "pdms_diameter_m",
+        (6e-3, 10e-3, 12e-3),
+        "the PDMS support's diameter under the 14 mm pad, a free choice of 6-12 mm",
+    ),
+    (
+        "variability",
+        "speed_rel",
+        (0.0, 0.01, 0.03),
+        "stroke-to-stroke scatter of the path speed: no source, 1 % an assumption; 0 an "
+        "exact servo, 3 % a loose one",
+    ),
+    (
         *TEXTURE_SCALE,
         (0.0, 0.5, 1.0, 2.0),
         "sensitivity, not a calibration: every material's texture scaled; at 0 the "
@@ -169,26 +232,51 @@ def scaled_texture(
     return dataclasses.replace(material, texture=scaled)
 
 
-def friction_material(config: SynthConfig, section: str, field: str) -> str | None:
-    """The material whose kinetic friction ``section.field`` names
-    (``materials.MATERIAL.kinetic_friction``), or None."""
+def material_field(config: SynthConfig, section: str, field: str) -> tuple[str, str] | None:
+    """``(material, field)`` when ``section.field`` names one material's own setting
+    (``materials.MATERIAL.FIELD``, FIELD one of :data:`MATERIAL_FIELDS`), or None."""
     name, _, rest = field.partition(".")
-    if section == "materials" and rest == KINETIC_FRICTION and name in config.materials:
-        return name
+    if section == "materials" and rest in MATERIAL_FIELDS and name in config.materials:
+        return name, rest
     return None
+
+
+def _one_mark(config: SynthConfig, name: str):
+    """``name``'s periodic mark, which ``mark_amplitude_m`` sets; a one-line refusal for a
+    material with none or several."""
+    marks = config.materials[name].texture.periodic
+    if len(marks) != 1:
+        raise CalibrationError(
+            f"materials.{name}.mark_amplitude_m: {name} has {len(marks)} periodic marks; "
+            "the setting needs exactly one"
+        )
+    return marks[0]
+
+
+def _material_with(config: SynthConfig, name: str, field: str, value: float) -> SynthConfig:
+    material = config.materials[name]
+    if field == KINETIC_FRICTION:  # the static coefficient kept in the same ratio
+        law = material.friction
+        scaled = dataclasses.replace(law, kinetic=value, static=value * law.static / law.kinetic)
+        return config.with_material(dataclasses.replace(material, friction=scaled))
+    texture = material.texture
+    if field == "mark_amplitude_m":
+        mark = dataclasses.replace(_one_mark(config, name), amplitude_m=value)
+        texture = dataclasses.replace(texture, periodic=(mark,))
+    else:
+        texture = dataclasses.replace(texture, **{field: value})
+    return config.with_material(dataclasses.replace(material, texture=texture))
 
 
 def with_value(config: SynthConfig, section: str, field: str, value: float) -> SynthConfig:
     """``config`` with ``section.field`` set to ``value`` (a material-wide factor of
-    :data:`MATERIAL_FACTORS` scales every material's texture instead, and
+    :data:`MATERIAL_FACTORS` scales every material's texture instead;
     ``materials.MATERIAL.kinetic_friction`` sets that material's kinetic friction, its
-    static coefficient kept in the same ratio)."""
-    name = friction_material(config, section, field)
-    if name is not None:
-        material = config.materials[name]
-        law = material.friction
-        scaled = dataclasses.replace(law, kinetic=value, static=value * law.static / law.kinetic)
-        return config.with_material(dataclasses.replace(material, friction=scaled))
+    static coefficient kept in the same ratio, and ``materials.MATERIAL.FIELD`` with
+    FIELD one of :data:`TEXTURE_FIELDS` that material's surface)."""
+    own = material_field(config, section, field)
+    if own is not None:
+        return _material_with(config, *own, value)
     if (section, field) in MATERIAL_FACTORS:
         roughness = value if (section, field) == TEXTURE_SCALE else 1.0
         for material in config.materials.values():
@@ -200,9 +288,14 @@ def with_value(config: SynthConfig, section: str, field: str, value: float) -> S
 
 def default_value(config: SynthConfig, section: str, field: str) -> float:
     """The configuration's value of a swept parameter (1 for the material factors)."""
-    name = friction_material(config, section, field)
-    if name is not None:
-        return config.materials[name].friction.kinetic
+    own = material_field(config, section, field)
+    if own is not None:
+        name, attr = own
+        if attr == KINETIC_FRICTION:
+            return config.materials[name].friction.kinetic
+        if attr == "mark_amplitude_m":
+            return _one_mark(config, name).amplitude_m
+        return getattr(config.materials[name].texture, attr)
     if (section, field) in MATERIAL_FACTORS:
         return 1.0
     return getattr(getattr(config, section), field)
@@ -211,15 +304,15 @@ def default_value(config: SynthConfig, section: str, field: str) -> float:
 def parse_set(items: list[str] | None) -> dict[tuple[str, str], float]:
     """``--set SECTION.FIELD=VALUE`` items as ``{(section, field): value}``: a numeric
     field of a configuration section (or ``materials.texture_scale``,
-    ``materials.marks_scale`` or ``materials.MATERIAL.kinetic_friction``), each set once;
-    none gives an empty table."""
+    ``materials.marks_scale`` or ``materials.MATERIAL.FIELD`` with FIELD one of
+    :data:`MATERIAL_FIELDS`), each set once; none gives an empty table."""
     defaults = SynthConfig()
     out: dict[tuple[str, str], float] = {}
     for item in items or ():
         name, sep, text = item.partition("=")
         section, _, field = name.partition(".")
         special = (section, field) in MATERIAL_FACTORS or (
-            friction_material(defaults, section, field) is not None
+            material_field(defaults, section, field) is not None
         )
         known = special or (
             section in SECTIONS
@@ -230,8 +323,8 @@ def parse_set(items: list[str] | None) -> dict[tuple[str, str], float]:
             raise CalibrationError(
                 "--set must be SECTION.FIELD=VALUE with a numeric field of "
                 f"{', '.join(SECTIONS)} (or materials.texture_scale, .marks_scale or "
-                f".MATERIAL.kinetic_friction with MATERIAL one of "
-                f"{', '.join(defaults.materials)}); got {item!r}"
+                f".MATERIAL.FIELD with MATERIAL one of {', '.join(defaults.materials)} and "
+                f"FIELD one of {', '.join(MATERIAL_FIELDS)}); got {item!r}"
             )
         try:
             value = parse_number(text)

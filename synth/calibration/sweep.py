@@ -8,6 +8,7 @@ them). Measuring a configuration is :func:`benchmark.calibration.measured`'s.
 from __future__ import annotations
 
 import json
+import math
 import os
 from collections.abc import Collection, Iterator, Mapping
 from pathlib import Path
@@ -43,7 +44,7 @@ def candidates(
             continue  # held at its --base value
         default = default_value(base, section, field)
         for value in values:
-            is_default = bool(np.isclose(value, default))
+            is_default = math.isclose(value, default, rel_tol=1e-9, abs_tol=1e-15)
             yield section, field, value, why, is_default, with_value(base, section, field, value)
 
 
