@@ -35,7 +35,7 @@ import math
 from tactile_synth.validation import parse_number
 
 from ..config import SynthConfig
-from ..materials import Material
+from ..materials import Material, Periodic
 
 
 class CalibrationError(ValueError):
@@ -241,7 +241,7 @@ def material_field(config: SynthConfig, section: str, field: str) -> tuple[str, 
     return None
 
 
-def _one_mark(config: SynthConfig, name: str):
+def _one_mark(config: SynthConfig, name: str) -> Periodic:
     """``name``'s periodic mark, which ``mark_amplitude_m`` sets; a one-line refusal for a
     material with none or several."""
     marks = config.materials[name].texture.periodic
