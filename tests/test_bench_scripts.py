@@ -195,3 +195,36 @@ def test_bench_texture_sets_a_materials_texture_and_leaves_the_others(monkeypatc
     assert cfg.materials["wood"].texture.periodic == base.materials["wood"].texture.periodic
     assert cfg.materials["resin"] == base.materials["resin"]
     assert cfg.materials["aluminum"] == base.materials["aluminum"]
+
+
+def test_bench_texture_measures_a_set_configuration_at_its_own_post_gain(monkeypatch, capsys):
+    """``--set`` measures that configuration at the films' gain the gain rule sizes for it
+    (as calibrate.py whatif does), unless ``--set pvdf.post_gain`` holds one; a
+    configuration no gain fits ends with one line."""
+    module = _script("bench_texture", monkeypatch)
+    from synth.calibration import gain
+    from synth.calibration.settings import CalibrationError
+
+    seen, sized = [], []
+
+    def sized_gain(config):
+        sized.append(config.pvdf.feedback_resistance_ohm)
+        if config.pvdf.feedback_resistance_ohm == 1e6:
+            raise CalibrationError("no post-gain from 0.1 up keeps the worst PVDF transient")
+        return 1.2, 5.0
+
+    def measure(config, speeds, seeds, force_n, margin_m):
+        seen.append(config.pvdf)
+        table = {m: {v: 1e-3 for v in speeds} for m in module.synth.MATERIAL_NAMES}
+        return table, table
+
+    monkeypatch.setattr(gain, "sized_gain", sized_gain)
+    monkeypatch.setattr(module, "measure", measure)
+    assert module.main(["--set", "pvdf.feedback_resistance_ohm=1.8e6"]) == 0
+    assert capsys.readouterr().out.startswith("films' post-gain 5\n")
+    assert (seen[-1].feedback_resistance_ohm, seen[-1].post_gain) == (1.8e6, 5.0)
+    argv = ["--set", "pvdf.feedback_resistance_ohm=1.8e6", "--set", "pvdf.post_gain=2"]
+    assert module.main(argv) == 0
+    assert seen[-1].post_gain == 2.0 and sized == [1.8e6]
+    with pytest.raises(SystemExit, match=r"^--set: no post-gain from 0.1 up keeps"):
+        module.main(["--set", "pvdf.feedback_resistance_ohm=1e6"])
