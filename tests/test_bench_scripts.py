@@ -109,6 +109,7 @@ def test_an_incomplete_dataset_is_finished_the_cli_way(monkeypatch, capsys):
         ("bench_methods", ["--episodes", "1_000"]),
         ("bench_run", ["--target-s", "1_000"]),
         ("bench_sim", ["--repeat", "1_000"]),
+        ("bench_steady", ["--seeds", "1_000"]),
         ("bench_stress", ["--target-s", "1_000"]),
         ("bench_store", ["--repeat", "1_000"]),
         ("calibrate", ["sweep", "--seeds", "1_000"]),
@@ -228,3 +229,22 @@ def test_bench_texture_measures_a_set_configuration_at_its_own_post_gain(monkeyp
     assert seen[-1].post_gain == 2.0 and sized == [1.8e6]
     with pytest.raises(SystemExit, match=r"^--set: no post-gain from 0.1 up keeps"):
         module.main(["--set", "pvdf.feedback_resistance_ohm=1e6"])
+
+
+def test_bench_steady_compares_the_steady_stretches_with_the_pads_position(monkeypatch, capsys):
+    """On simulated trials the finder's stretches keep clear of the edges the pad's axis
+    crosses (its 0.3 s gap runs from the films' transients, which the crossings lie
+    among); the table has one row per material; a bad count is refused by name."""
+    module = _script("bench_steady", monkeypatch)
+    res = module.measure(1, 1.0, 10.0)
+    assert set(res) == {"resin", "wood", "aluminum"}
+    for row in res.values():
+        assert row["trials"] == 12 and 0 < row["found"] <= 12
+        assert row["min_crossing_gap_s"] >= 0.2
+        assert 0.2 <= row["mean_length_s"] <= 2.0
+        assert 0 <= row["overlapping_at_end"] <= row["overlapping"] <= row["found"]
+    assert module.main(["--seeds", "1"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert len(out) == 2 + 3 and out[2].startswith("resin")
+    err = _fails(module.main, ["--seeds", "0"], capsys)
+    assert "--seeds must be at least 1" in err
