@@ -412,8 +412,6 @@ def cmd_whatif(args: argparse.Namespace) -> int:
     from synth.simulator import SaturatedTrialError
 
     config = settings.configured(args.set)
-    if not settings.holds_gain(args.set):
-        config = gain.at_sized_gain(config)
     keep = None
     if args.keep is not None:
         keep = Path(args.keep)
@@ -423,6 +421,8 @@ def cmd_whatif(args: argparse.Namespace) -> int:
             raise SystemExit(str(exc)) from None
         if keep.exists():
             raise SystemExit(f"--keep {keep} already exists; choose a new directory")
+    if not settings.holds_gain(args.set):  # after the checks: sizing simulates
+        config = gain.at_sized_gain(config)
     noise = amplifier_noise_v(config)
     print(
         "what-if configuration: "
