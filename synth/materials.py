@@ -152,7 +152,8 @@ MATERIALS: dict[str, Material] = {
     # (correlation length 120 um, the order of beech's vessels, 50-100 um across, and
     # fibres: not measured as such, plausible 50-200 um); the growth rings a slow relief
     # of a few um every 2-5 mm (ring widths 2-8 mm: Adamopoulos et al. 2009, Eur. J.
-    # Wood Prod. 67; its depth, 4 um, is a free choice within the waviness of a few um).
+    # Wood Prod. 67; its depth, 4 um, is a free choice within the waviness of a few um,
+    # 2-6 um; ``scripts/calibrate.py sweep`` measures both ends).
     "wood": Material(
         name="wood",
         friction=SILICONE_FRICTION,

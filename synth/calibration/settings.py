@@ -185,7 +185,7 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
         "materials",
         "wood.mark_amplitude_m",
         (2e-6, 4e-6, 6e-6),
-        "the growth rings' relief, a free choice within sanded wood's waviness of a few um",
+        "the growth rings' relief, a free choice within sanded wood's waviness of a few um, 2-6",
     ),
     (
         "materials",
