@@ -329,7 +329,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             ):
                 t0 = time.perf_counter()
                 own = config if hold_gain else _at_own_gain(config, sized)
-                if isinstance(own, str):  # no gain: measured at none
+                if isinstance(own, str):  # no gain could be sized: the row says why
                     key, post_gain = measure.config_key(config), None
                     done[key] = {"failed": own}
                 else:
