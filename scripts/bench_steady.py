@@ -31,7 +31,7 @@ from script_args import description, fail
 import shapes
 import synth
 from benchmark.diagnose import steady
-from synth import contact, planning
+from synth import planning, texture
 from synth.trial import SAMPLE_RATE_HZ, TrialSpec
 from tactile_synth.validation import float_arg, int_arg
 
@@ -40,13 +40,7 @@ def edge_truth(trial: synth.Trial, config: synth.SynthConfig) -> tuple[np.ndarra
     """``(crossing, touching)`` per window sample of ``trial``: where the pad's axis
     crosses the outline, and where the skin's contact reaches an edge (the contact
     circle over an edge from the top, the skin against a wall from the base)."""
-    f = config.finger
-    sink = float(
-        contact.hertz_indentation_m(
-            trial.spec.force_n, f.pad_radius_m, f.skin_modulus_pa, f.skin_poisson
-        )
-    )
-    radius = math.sqrt(f.pad_radius_m * sink)
+    radius = float(texture.contact_radius_m(config.finger, trial.spec.force_n))
     reach = planning.touch_distance_m(config, trial.spec.force_n)
     poly = shapes.outline(trial.spec.shape)
     pts = shapely.points(trial.truth["finger_x_m"], trial.truth["finger_y_m"])

@@ -44,6 +44,7 @@ from scipy import signal
 
 import shapes
 import synth
+from synth.calibration.settings import with_value
 from synth.trial import SAMPLE_RATE_HZ, TrialSpec
 from tactile_synth.validation import int_arg, parse_number
 
@@ -157,7 +158,7 @@ def transfer(
     return out
 
 
-#: The texture fields ``--texture`` may change.
+#: The texture fields ``--texture`` may change (as ``--set materials.MATERIAL.FIELD``).
 TEXTURE_FIELDS = ("roughness_rms_m", "correlation_length_m")
 
 
@@ -176,12 +177,10 @@ def with_texture(config: synth.SynthConfig, items: list[str]) -> synth.SynthConf
             raise ValueError(
                 f"--texture {item!r}: FIELD must be one of {', '.join(TEXTURE_FIELDS)}"
             )
-        mat = config.materials[material]
         try:
-            texture = dataclasses.replace(mat.texture, **{field: parse_number(value)})
+            config = with_value(config, "materials", f"{material}.{field}", parse_number(value))
         except ValueError as exc:
             raise ValueError(f"--texture {item!r}: {exc}") from None
-        config = config.with_material(dataclasses.replace(mat, texture=texture))
     return config
 
 
