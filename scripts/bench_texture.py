@@ -218,13 +218,11 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--force and --speeds must be > 0 and --margin-mm >= 0")
     config = synth.SynthConfig()
     if args.set:
-        from synth.calibration.gain import at_sized_gain
-        from synth.calibration.settings import CalibrationError, configured, holds_gain
+        from synth.calibration.gain import configured_at_own_gain
+        from synth.calibration.settings import CalibrationError
 
-        try:
-            config = configured(args.set)
-            if not holds_gain(args.set):  # the films' gain sized for them, as whatif does
-                config = at_sized_gain(config)
+        try:  # the films' gain sized for them, as whatif does
+            config = configured_at_own_gain(args.set)
         except (CalibrationError, synth.SimulationError) as exc:
             raise SystemExit(f"--set: {exc}") from None
         print(f"films' post-gain {config.pvdf.post_gain:g}")

@@ -411,7 +411,6 @@ def cmd_whatif(args: argparse.Namespace) -> int:
     from synth.sensors import SaturationError, amplifier_noise_v
     from synth.simulator import SaturatedTrialError
 
-    config = settings.configured(args.set)
     keep = None
     if args.keep is not None:
         keep = Path(args.keep)
@@ -421,8 +420,7 @@ def cmd_whatif(args: argparse.Namespace) -> int:
             raise SystemExit(str(exc)) from None
         if keep.exists():
             raise SystemExit(f"--keep {keep} already exists; choose a new directory")
-    if not settings.holds_gain(args.set):  # after the checks: sizing simulates
-        config = gain.at_sized_gain(config)
+    config = gain.configured_at_own_gain(args.set)  # after the checks: sizing simulates
     noise = amplifier_noise_v(config)
     print(
         "what-if configuration: "

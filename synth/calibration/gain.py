@@ -14,7 +14,7 @@ from shapes import SHAPE_NAMES
 from ..config import SynthConfig
 from ..materials import MATERIAL_NAMES
 from ..sensors import film_on_carrier
-from .settings import CalibrationError
+from .settings import CalibrationError, configured, holds_gain
 
 #: Round post-amplifier gains (1-2-5 series) the gain command chooses from.
 ROUND_GAINS: tuple[float, ...] = (0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0)
@@ -65,6 +65,14 @@ def at_sized_gain(config: SynthConfig) -> SynthConfig:
     saturated or left in the DAQ's floor by the defaults'."""
     _, best = sized_gain(config)
     return dataclasses.replace(config, pvdf=dataclasses.replace(config.pvdf, post_gain=best))
+
+
+def configured_at_own_gain(items: list[str] | None) -> SynthConfig:
+    """The configuration the ``--set`` ``items`` ask for
+    (:func:`synth.calibration.settings.configured`), at the post-gain
+    :func:`at_sized_gain` sizes for it unless the items set ``pvdf.post_gain``."""
+    config = configured(items)
+    return config if holds_gain(items) else at_sized_gain(config)
 
 
 #: Young's modulus of the films' polyester carrier (PET film: 4-5 GPa).
