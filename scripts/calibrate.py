@@ -106,8 +106,9 @@ source gives; nothing is tuned per shape, material or class.
 
 The sweep simulates 36 classes x ``--trials-per-class`` trials per candidate and seed
 (720 at the default of 20); at 30 trials per class and three seeds a candidate costs
-3,240 simulated trials (``docs/speed.md`` gives the simulator's CPU per trial) and AFOP-ML's
-selection on each dataset. The default configuration is evaluated once.
+3,240 simulated trials (``docs/speed.md`` gives the simulator's CPU per trial), 72 more
+at the grid's corner to size its gain, and AFOP-ML's selection on each dataset. The
+default configuration is evaluated once.
 """
 
 from __future__ import annotations
