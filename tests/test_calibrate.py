@@ -380,7 +380,7 @@ def test_set_gives_one_material_a_surface_of_its_own_and_the_sweep_spans_them(tm
 
 
 @pytest.mark.slow
-def test_gain_sizes_the_default_post_gain_and_any_configurations(capsys):
+def test_gain_sizes_the_default_post_gain_and_any_configurations(monkeypatch, capsys):
     """The default post-gain is the one the script sizes; a film carrier that multiplies
     the bending charge by 4.8 (the 125 um laminate) gets a smaller one, rounded in the
     1-2-5 series (half: the shear coupling's charge does not grow with the carrier)."""
@@ -393,6 +393,13 @@ def test_gain_sizes_the_default_post_gain_and_any_configurations(capsys):
     argv = ["gain", "--set", "pvdf.neutral_axis_offset_m=9e-4", "--set", "pvdf.d31_c_per_n=1e-9"]
     with pytest.raises(SystemExit, match=r"^the PVDF transients exceed \+-1000 V per unit"):
         calibrate.main(argv)
+    # a readout whose corner lies in the texture band leaves smaller transients: a larger
+    # gain, the one the sweep and whatif then measure that readout at
+    readout = ["pvdf.feedback_resistance_ohm=1.8e6"]
+    monkeypatch.undo()  # the real sizing
+    config = gain.configured_at_own_gain(readout)
+    assert config.pvdf.post_gain == 5.0 and config.pvdf.feedback_resistance_ohm == 1.8e6
+    assert gain.configured_at_own_gain([*readout, "pvdf.post_gain=2"]).pvdf.post_gain == 2.0
 
 
 def test_carrier_prints_each_films_settings_and_refuses_a_bad_thickness(monkeypatch, capsys):
