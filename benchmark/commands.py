@@ -8,7 +8,7 @@ import sys
 
 from tactile_synth.interrupts import terminate_as_interrupt
 from tactile_synth.threads import HELP as THREADS_HELP
-from tactile_synth.validation import int_arg
+from tactile_synth.validation import float_arg, int_arg
 
 from .cli_options import add_method_options, again_command, check_methods_arg
 from .stress import cli as stress_cli
@@ -255,6 +255,14 @@ def _register_diagnose(subparsers: argparse._SubParsersAction) -> None:
         action="store_true",
         help="diagnose the finished trials of an interrupted generation",
     )
+    p.add_argument(
+        "--edge-gap-s",
+        type=float_arg,
+        default=0.3,
+        metavar="S",
+        help="steady-sliding stretches keep this far from every wall crossing the films "
+        "show (seconds, 0 to 0.9; default 0.3)",
+    )
     p.set_defaults(handler=_diagnose)
 
 
@@ -263,12 +271,15 @@ def _diagnose(args: argparse.Namespace) -> int:
     import time
 
     from .diagnose import MARKDOWN_NAME, run_diagnose, summary_table
+    from .diagnose.steady import check_edge_gap
 
+    check_edge_gap(args.edge_gap_s, "--edge-gap-s")
     start = time.perf_counter()
     diag = run_diagnose(
         args.data,
         out=args.out,
         allow_incomplete=args.allow_incomplete,
+        edge_gap_s=args.edge_gap_s,
         progress=lambda msg: print(
             f"[diagnose {time.perf_counter() - start:5.1f} s] {msg}", file=sys.stderr, flush=True
         ),

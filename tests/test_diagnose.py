@@ -21,6 +21,7 @@ from benchmark.diagnose import (
     loo_score,
     markdown,
     plot_accuracy,
+    run_diagnose,
     summary_table,
     write_diagnosis,
 )
@@ -335,6 +336,15 @@ def test_cli_refuses_an_incomplete_store_naming_the_fix(tmp_path, capsys):
         assert err.endswith(f"--out {out} lies inside the dataset {data}; choose another DIR")
         assert len(err.splitlines()) == 1
     assert not (data / "report").exists() and not (data / MARKDOWN_NAME).exists()
+    # a steady gap outside its range is refused by its option's name, before any loading
+    assert main(["diagnose", str(tmp_path / "absent"), "--edge-gap-s", "1.5"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (
+        "tactile-synth diagnose: error: --edge-gap-s must lie in 0..0.9 s (a 2 s window "
+        "keeps a 0.2 s stretch between two gaps); got 1.5"
+    )
+    assert main(["diagnose", str(data), "--allow-incomplete", "--edge-gap-s", "0.45"]) == 0
+    assert run_diagnose(data, allow_incomplete=True, edge_gap_s=0.45).steady["edge_gap_s"] == 0.45
 
 
 def test_steady_stretches_keep_clear_of_the_edges_and_score_the_material():
@@ -357,6 +367,8 @@ def test_steady_stretches_keep_clear_of_the_edges_and_score_the_material():
         material.append(m)
     stretch = steady.steady_stretch(signals[0])
     assert stretch == slice(501, 1500)
+    assert steady.steady_stretch(signals[0], 0.45) == slice(651, 1350)
+    assert steady.steady_stretch(signals[0], 0.7) is None  # under 0.2 s left between them
     report = steady.steady_diagnosis(np.array(signals), np.array(material))
     assert report["scored"] == 24 and report["left_out"] == 0
     assert report["left_out_by_material"] == {"aluminum": 0, "resin": 0, "wood": 0}
@@ -372,3 +384,10 @@ def test_steady_stretches_keep_clear_of_the_edges_and_score_the_material():
     assert report["left_out_by_material"] == {"aluminum": 0, "resin": 0, "wood": 2}
     line = steady.summary_lines(report, None)[0]
     assert line.endswith("22 trials, 2 without a steady stretch: aluminum 0, resin 0, wood 2):")
+    wider = steady.steady_diagnosis(np.array(signals), np.array(material), edge_gap_s=0.45)
+    assert wider["edge_gap_s"] == 0.45 and wider["scored"] == 22
+    first = steady.summary_lines(wider, None)[0]
+    assert first.startswith("material 1-NN on steady sliding (>= 0.45 s")
+    for bad in (-0.1, 0.95, float("nan")):
+        with pytest.raises(ValueError, match=r"^edge_gap_s must lie in 0..0.9 s"):
+            steady.steady_diagnosis(np.array(signals), np.array(material), edge_gap_s=bad)

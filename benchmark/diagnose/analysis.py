@@ -150,6 +150,7 @@ def diagnose(
     features: np.ndarray | None = None,
     source: str | None = None,
     progress: Callable[[str], None] | None = None,
+    edge_gap_s: float = steady.EDGE_GAP_S,
 ) -> Diagnosis:
     """Diagnose ``data``: what its classes differ by, channel group by channel group
     (see :mod:`benchmark.diagnose` for what is measured).
@@ -165,6 +166,9 @@ def diagnose(
         ``"dataset"``).
     progress : callable, optional
         Called with a one-line message at each stage (e.g. ``print``).
+    edge_gap_s : float, optional
+        How far the steady-sliding stretches keep from every wall crossing the films
+        show, in seconds (default 0.3; 0 to 0.9).
 
     Returns
     -------
@@ -300,5 +304,5 @@ def diagnose(
         confusion=confusion,
         spectra=_pvdf_spectra(data, cond, conditions, materials),
         sg_traces=_sg_traces(data, cond, conditions, shapes),
-        steady=steady.steady_diagnosis(data.signals, data.material),
+        steady=steady.steady_diagnosis(data.signals, data.material, edge_gap_s),
     )

@@ -15,6 +15,7 @@ from synth import Dataset
 from synth.store import check_not_inside_a_store
 from tactile_synth.atomic import check_out_dir
 
+from . import steady
 from .analysis import diagnose
 from .plots import plot_accuracy, plot_confusion, plot_pvdf_spectra, plot_sg_traces
 from .result import CURVES_NAME, FIGURES, JSON_NAME, MARKDOWN_NAME, Diagnosis
@@ -99,16 +100,18 @@ def run_diagnose(
     out: str | Path | None = None,
     allow_incomplete: bool = False,
     progress: Callable[[str], None] | None = None,
+    edge_gap_s: float = steady.EDGE_GAP_S,
 ) -> Diagnosis:
-    """The CLI's work: load the store at ``path``, diagnose it, and write the files into
-    ``out`` when given."""
+    """The CLI's work: load the store at ``path``, diagnose it (its steady stretches
+    ``edge_gap_s`` from the walls), and write the files into ``out`` when given."""
+    steady.check_edge_gap(edge_gap_s)  # before loading, so a bad value fails at once
     say = progress or (lambda msg: None)
     if out is not None:
         check_out_dir(out)  # before loading, so a bad --out fails at once
         # The report's files do not belong in a store.
         check_not_inside_a_store(out, itself=True, advice="choose another DIR")
     data = load_for_diagnosis(path, allow_incomplete=allow_incomplete, progress=say)
-    diag = diagnose(data, source=str(path), progress=say)
+    diag = diagnose(data, source=str(path), progress=say, edge_gap_s=edge_gap_s)
     if out is not None:
         say(f"writing {Path(out) / MARKDOWN_NAME}, {JSON_NAME}, {CURVES_NAME} and figures")
         write_diagnosis(diag, out)

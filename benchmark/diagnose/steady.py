@@ -27,8 +27,11 @@ from scipy import signal
 
 from synth.trial import SAMPLE_RATE_HZ
 
-#: Steady sliding starts and ends this long from any wall crossing.
+#: Steady sliding starts and ends this long from any wall crossing (the default).
 EDGE_GAP_S = 0.3
+#: Longest gap allowed: a 2 s window must keep a :data:`MIN_STEADY_S` stretch between two
+#: gaps.
+MAX_EDGE_GAP_S = 0.9
 #: A wall crossing: the films' magnitude reaches this fraction of the trial's largest.
 EDGE_FRACTION = 0.05
 #: Shortest steady stretch scored.
@@ -40,8 +43,20 @@ FILM_BANDS_HZ = np.geomspace(20.0, 400.0, 7)
 PVDF, SG = (0, 1), (2, 3)
 
 
-def steady_stretch(signals: np.ndarray) -> slice | None:
-    """The longest stretch of ``signals`` ``(4, n)`` at least :data:`EDGE_GAP_S` from every
+def check_edge_gap(edge_gap_s: float, name: str = "edge_gap_s") -> float:
+    """``edge_gap_s`` as a float; a one-line ``ValueError`` naming it (as ``name``) outside
+    ``[0, MAX_EDGE_GAP_S]``."""
+    gap = float(edge_gap_s)
+    if not 0.0 <= gap <= MAX_EDGE_GAP_S:
+        raise ValueError(
+            f"{name} must lie in 0..{MAX_EDGE_GAP_S:g} s (a 2 s window keeps a "
+            f"{MIN_STEADY_S:g} s stretch between two gaps); got {edge_gap_s!r}"
+        )
+    return gap
+
+
+def steady_stretch(signals: np.ndarray, edge_gap_s: float = EDGE_GAP_S) -> slice | None:
+    """The longest stretch of ``signals`` ``(4, n)`` at least ``edge_gap_s`` from every
     wall crossing, or ``None`` if it is shorter than :data:`MIN_STEADY_S`."""
     films = np.abs(np.asarray(signals[list(PVDF)], dtype=float) - np.median(signals[list(PVDF)]))
     mag = films.max(axis=0)
@@ -49,7 +64,7 @@ def steady_stretch(signals: np.ndarray) -> slice | None:
     n = mag.size
     quiet = np.ones(n, dtype=bool)
     if peak > 0:
-        gap = round(EDGE_GAP_S * SAMPLE_RATE_HZ)
+        gap = round(edge_gap_s * SAMPLE_RATE_HZ)
         for i in np.flatnonzero(mag >= EDGE_FRACTION * peak):
             quiet[max(i - gap, 0) : i + gap + 1] = False
     padded = np.concatenate([[0], quiet.astype(np.int8), [0]])
@@ -86,7 +101,9 @@ def steady_features(signals: np.ndarray, stretch: slice) -> dict[str, np.ndarray
     return {"all": np.concatenate([sg, pvdf]), "sg": sg, "pvdf": pvdf}
 
 
-def steady_diagnosis(signals: np.ndarray, material: np.ndarray) -> dict[str, Any]:
+def steady_diagnosis(
+    signals: np.ndarray, material: np.ndarray, edge_gap_s: float = EDGE_GAP_S
+) -> dict[str, Any]:
     """The steady-sliding report of a dataset's ``signals`` ``(n, 4, 2000)`` with their
     ``material`` labels: ``{"scored", "left_out", "left_out_by_material": {material:
     count}, "material_accuracy": {group: acc}, "texture_band_rms_v": {material: mean films'
@@ -95,17 +112,18 @@ def steady_diagnosis(signals: np.ndarray, material: np.ndarray) -> dict[str, Any
     steady stretches, and so is scored on fewer trials than the others."""
     from .nearest import loo_nearest, loo_score
 
+    edge_gap_s = check_edge_gap(edge_gap_s)
     material = np.asarray(material)
     rows, feats, rms = [], [], []
     for i, sig in enumerate(signals):
-        stretch = steady_stretch(sig)
+        stretch = steady_stretch(sig, edge_gap_s)
         if stretch is None:
             continue
         rows.append(i)
         feats.append(steady_features(sig, stretch))
         rms.append(np.mean([_band_rms(np.asarray(sig[c, stretch], float), *BAND_HZ) for c in PVDF]))
     out: dict[str, Any] = {
-        "edge_gap_s": EDGE_GAP_S,
+        "edge_gap_s": edge_gap_s,
         "scored": len(rows),
         "left_out": int(len(signals) - len(rows)),
         "left_out_by_material": {
