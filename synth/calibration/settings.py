@@ -128,8 +128,8 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
         "charge-amplifier high-pass 0.16 / 1.6 / 16 Hz; 88 Hz, inside the texture band, is "
         "the corner of a film read in voltage mode across the piezo-film manual's 10 MOhm "
         "load (the film's 76 pF and some 100 pF of cable and input): the readout is not "
-        "described; at 0.16 Hz the default post-gain saturates the DAQ (size it with "
-        "calibrate.py gain)",
+        "described; each corner is measured at the post-gain the gain rule sizes for it "
+        "(0.5 / 1 / 2 / 5)",
     ),
     (
         "pvdf",
