@@ -61,7 +61,9 @@ source gives; nothing is tuned per shape, material or class.
         pvdf.post_gain=G`` holds one for all.
         DIR's tables are rewritten after every candidate, so an interrupted sweep keeps
         the rows it measured; ``--resume`` reuses the rows of DIR's table measured with
-        the same trials per class, seeds and configuration, and measures the rest. A
+        the same trials per class, seeds and configuration, and measures the rest; with
+        ``--only`` it keeps the table's rows of the other parameters too, when that sweep
+        started from the same configuration (so one parameter can be added to a table). A
         candidate that cannot be simulated (MuJoCo diverges, a channel saturates) gets a
         row saying why, naming the trial, and the sweep goes on.
 
@@ -315,15 +317,19 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             check_out_dir(out)
         except OSError as exc:
             raise SystemExit(str(exc)) from None
-    reuse = (
-        sweep.previous_measurements(out, args.trials_per_class, args.seeds) if args.resume else {}
-    )
+    earlier = sweep.earlier_rows(out, args.trials_per_class, args.seeds) if args.resume else []
+    reuse = sweep.previous_measurements(earlier)
     rows = []
+    kept: list[dict] = []  # the earlier table's rows of parameters this run does not sweep
     names: list[str] = []  # the metrics' names, from the first candidate measured
     done: dict[str, dict] = {}  # the default configuration recurs in every parameter's sweep
     sized: dict[str, synth.SynthConfig | str] = {}
     with tempfile.TemporaryDirectory() as tmp:
         where = Path(tmp) / "grid"
+        if earlier:
+            own = base if hold_gain else _at_own_gain(base, sized)
+            base_key = measure.config_key(own if isinstance(own, synth.SynthConfig) else base)
+            kept = sweep.kept_rows(earlier, base_key, sweep.swept_parameters(args.only, held))
         try:
             for section, field, value, why, is_default, config in sweep.candidates(
                 base, args.only, held
@@ -369,7 +375,12 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                     flush=True,
                 )
                 if out is not None:  # after every candidate: an interruption keeps them
-                    sweep.write_tables(out, rows, names, args.seeds)
+                    sweep.write_tables(
+                        out,
+                        sweep.in_sweep_order(kept + rows),
+                        names or next((r["metrics"] for r in kept if r["metrics"]), []),
+                        args.seeds,
+                    )
         except KeyboardInterrupt:
             kept = f"; {len(rows)} rows are in {out / 'calibration.json'}" if out else ""
             again = " (add --resume to continue)" if out else ""

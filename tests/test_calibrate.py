@@ -184,6 +184,36 @@ def test_an_interrupted_sweep_keeps_its_rows_and_resumes_where_it_stopped(tmp_pa
     assert calls[8:] == [0.0, 0.005, 0.01, 0.02]
 
 
+def test_a_resumed_sweep_of_one_parameter_keeps_the_table_of_the_others(tmp_path, monkeypatch):
+    """``--resume --only`` adds a parameter's rows to a table swept from the same base, in
+    the sweep's order, and measures nothing already there; a table swept from another
+    base keeps none of its other rows (they would describe that base)."""
+    calibrate = _calibrate_module()
+    calls = []
+
+    def evaluate(config, trials_per_class, where, seed):
+        calls.append((config.variability.yaw_rad, config.variability.friction_rel))
+        return _fake_metrics(config)
+
+    monkeypatch.setattr(measure, "evaluate", evaluate)
+    out = ["--out", str(tmp_path)]
+    assert calibrate.main(["sweep", "--only", "variability.friction_rel", *out]) == 0
+    assert calibrate.main(["sweep", "--only", "variability.yaw_rad", *out, "--resume"]) == 0
+    rows = json.loads((tmp_path / "calibration.json").read_text())
+    assert [r["parameter"] for r in rows] == ["variability.yaw_rad"] * 4 + [
+        "variability.friction_rel"
+    ] * 5
+    assert len(calls) == 5 + 3  # yaw's default row is friction's, measured once
+    table = (tmp_path / "calibration.md").read_text().splitlines()
+    assert len(table) == 2 + 9 and table[6].startswith("| variability.friction_rel | 0.039 (")
+    # from another base, the friction rows are not this table's
+    argv = ["sweep", "--only", "variability.yaw_rad", *out, "--resume"]
+    assert calibrate.main([*argv, "--set", "variability.force_rel=0.1"]) == 0
+    rows = json.loads((tmp_path / "calibration.json").read_text())
+    assert [r["parameter"] for r in rows] == ["variability.yaw_rad"] * 4
+    assert len(calls) == 8 + 4
+
+
 def test_a_candidate_that_cannot_be_simulated_is_reported_and_the_sweep_goes_on(
     tmp_path, monkeypatch
 ):

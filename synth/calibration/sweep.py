@@ -37,15 +37,26 @@ def candidates(
     swept parameter (only those named ``SECTION.FIELD`` in ``only``, if given; none held
     in ``held``, which ``base`` already holds at their ``--base`` values), set on
     ``base``; ``is_default`` marks the value ``base`` has."""
+    swept = swept_parameters(only, held)
     for section, field, values, why in SWEEP:
-        if only and f"{section}.{field}" not in only:
+        if f"{section}.{field}" not in swept:
             continue
-        if held and (section, field) in held:
-            continue  # held at its --base value
         default = default_value(base, section, field)
         for value in values:
             is_default = math.isclose(value, default, rel_tol=1e-9, abs_tol=1e-15)
             yield section, field, value, why, is_default, with_value(base, section, field, value)
+
+
+def swept_parameters(
+    only: Collection[str] | None = None, held: Mapping[tuple[str, str], float] | None = None
+) -> list[str]:
+    """The ``SECTION.FIELD`` names a sweep measures, in :data:`SWEEP`'s order: those in
+    ``only`` (every one, if not given), less those ``held`` at a ``--base`` value."""
+    return [
+        f"{section}.{field}"
+        for section, field, _, _ in SWEEP
+        if (not only or f"{section}.{field}" in only) and not (held and (section, field) in held)
+    ]
 
 
 def over_seeds(per_seed: list[dict]) -> dict:
@@ -77,30 +88,56 @@ def format_metric(key: str, value: float) -> str:
     return f"{value:.3f}"
 
 
-def previous_measurements(out: Path | None, trials_per_class: int, seeds: int) -> dict[str, dict]:
-    """``--resume``: the metrics of the rows in ``out/calibration.json`` that were measured
-    with this sweep's trials per class and seeds, by configuration (``{"failed": why}``
-    for a configuration whose simulation failed: it fails again, bit for bit)."""
+def earlier_rows(out: Path | None, trials_per_class: int, seeds: int) -> list[dict]:
+    """``--resume``: the rows of ``out/calibration.json`` that were measured with this
+    sweep's trials per class and seeds, as they were written (none without the file)."""
     if out is None:
         raise CalibrationError("--resume needs --out DIR (the sweep whose rows it keeps)")
     path = out / "calibration.json"
     if not path.is_file():
-        return {}
+        return []
     try:
         rows = json.loads(path.read_text())
-        kept = {
-            r["config_sha256"]: (
-                {"failed": r["failed"]} if r.get("failed") else {k: r[k] for k in r["metrics"]}
-            )
-            for r in rows
-            if (r["trials_per_class"], r["seeds"]) == (trials_per_class, seeds)
-        }
+        kept = [r for r in rows if (r["trials_per_class"], r["seeds"]) == (trials_per_class, seeds)]
+        for r in kept:
+            fields = ("parameter", "value", "default", "config_sha256", *r["metrics"])
+            missing = [k for k in fields if k not in r]
+            if missing:
+                raise KeyError(missing[0])
     except (ValueError, KeyError, TypeError) as exc:
         raise CalibrationError(
             f"--resume: {path} is not a sweep table this script wrote ({type(exc).__name__}: "
             f"{exc}); choose another --out or remove it"
         ) from None
     return kept
+
+
+def previous_measurements(rows: list[dict]) -> dict[str, dict]:
+    """The metrics of :func:`earlier_rows`' ``rows`` by configuration (``{"failed": why}``
+    for a configuration whose simulation failed: it fails again, bit for bit)."""
+    return {
+        r["config_sha256"]: (
+            {"failed": r["failed"]} if r.get("failed") else {k: r[k] for k in r["metrics"]}
+        )
+        for r in rows
+    }
+
+
+def kept_rows(rows: list[dict], base_key: str, swept: Collection[str]) -> list[dict]:
+    """The rows of an earlier table (:func:`earlier_rows`) that a resumed sweep writes
+    beside its own: those of the parameters it does not sweep, provided the earlier
+    sweep started from the same base (its ``(default)`` rows measured ``base_key``'s
+    configuration); none otherwise, since they would describe another base."""
+    if {r["config_sha256"] for r in rows if r["default"]} != {base_key}:
+        return []
+    return [r for r in rows if r["parameter"] not in swept]
+
+
+def in_sweep_order(rows: list[dict]) -> list[dict]:
+    """``rows`` ordered by their parameter's place in :data:`SWEEP` (a parameter's own
+    rows keep their order)."""
+    place = {f"{section}.{field}": i for i, (section, field, _, _) in enumerate(SWEEP)}
+    return sorted(rows, key=lambda r: place.get(r["parameter"], len(place)))
 
 
 def write_tables(out: Path, rows: list[dict], metrics: list[str], seeds: int) -> None:
