@@ -21,7 +21,7 @@ class Finger:
     #: Moving mass below the PDMS support: silicone skin pad, films and the support's
     #: moving half (a silicone hemisphere of 7 mm radius alone is ~0.8 g). Not measured
     #: for the paper's finger; plausible 1-4 g (``scripts/calibrate.py mount`` prints the
-    #: mount's modes for it).
+    #: mount's modes for it, ``scripts/calibrate.py sweep`` measures the range).
     pad_mass_kg: float = 0.003
     #: Phalanx + carriage mass the robot's drives move.
     phalanx_mass_kg: float = 0.05
@@ -70,7 +70,9 @@ class Finger:
     #: over 0.3-2 N (``synth.contact.hertz_indentation_m``), within 3.1 % at every load.
     skin_solref: tuple[float, ...] = (0.001, 1.0)
     skin_solimp: tuple[float, ...] = (0.351913, 0.95, 0.005386, 0.5, 1.0)
-    #: Fingerprint ridge spacing (human ~0.45 mm; the paper's finger has printed ridges).
+    #: Fingerprint ridge spacing. The paper's finger carries a fingerprint its description
+    #: does not dimension; human ridges lie about 0.5 mm apart (Maltoni et al. 2009,
+    #: below). A free choice, plausible 0.3-0.6 mm, which the sweep measures.
     ridge_spacing_m: float = 0.45e-3
     #: Width of one ridge's contact with the surface (averages finer texture). Fingerprint
     #: ridges are 100-300 um wide, about 500 um apart (Maltoni et al. 2009, Handbook of

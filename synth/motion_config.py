@@ -55,7 +55,8 @@ class Motion:
     servo_damping_n_s_m: float = 65.0
     #: Closed-loop bandwidth of the force loop. Not published for UR force mode; a 125-500
     #: Hz admittance loop with a sample or two of latency is stable up to ~1/10 of its
-    #: rate, and contact bouncing is reported at the upper end: 5 Hz (range 1-10 Hz).
+    #: rate, and contact bouncing is reported at the upper end: 5 Hz (range 1-10 Hz,
+    #: which ``scripts/calibrate.py sweep`` measures).
     force_loop_bandwidth_hz: float = 5.0
     #: MuJoCo impratio: frictional/normal constraint impedance; 10 makes the elliptic
     #: cone's tangential/normal match the coefficient (0.83 at 1 vs 0.90 for 0.9).
@@ -182,6 +183,11 @@ class Variability:
     #: force scatter").
     force_rel: float = 0.052
     #: Relative error of the path speed: not measured for this rig either; an assumption.
+    #: A timed path whose every point repeated as a UR5's poses do (one standard deviation
+    #: 0.033 mm, "The force scatter" in ``docs/simulator.md``) would change the time
+    #: between a stroke's edges, 14-20 mm apart, by sqrt(2) x 0.033 mm over that stretch,
+    #: 0.23-0.33 %; force mode's path tracking is not published. ``scripts/calibrate.py
+    #: sweep`` measures 0, 0.25 %, 1 % and 3 %.
     speed_rel: float = 0.01
     #: Stroke-to-stroke scatter of the friction coefficient on one specimen (coefficient
     #: of variation). Two platinum-cure silicones slid 30 times over one PLA track at
@@ -194,7 +200,7 @@ class Variability:
     #: contaminated or worn contacts up to 10-15 %.
     friction_rel: float = 0.039
     #: When the window is cut from the record: the contact onset is found in the signals
-    #: to within this (uniform in [0, this]).
+    #: to within this (uniform in [0, this]). A free choice; the sweep measures 0-50 ms.
     window_jitter_s: float = 0.02
 
     def __post_init__(self) -> None:

@@ -116,7 +116,9 @@ class PVDF:
     length_m: float = 5.0e-3
     width_m: float = 4.0e-3
     #: Position of each film's centre: this far ahead of (front) and behind (rear) the
-    #: pad's axis, on the skin's surface.
+    #: pad's axis, on the skin's surface. Not dimensioned in the finger's description: a
+    #: free choice that keeps both strips on the 7 mm pad's flank and apart (3-4.5 mm,
+    #: which ``scripts/calibrate.py sweep`` measures).
     offset_m: float = 4.0e-3
     #: Charge amplifier feedback capacitance and resistance: 1 nF, 100 MOhm -> 1.6 Hz
     #: high-pass, which blocks the film's pyroelectric and slow thermal drift. The

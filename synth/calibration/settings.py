@@ -202,9 +202,46 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
     (
         "variability",
         "speed_rel",
-        (0.0, 0.01, 0.03),
+        (0.0, 0.0025, 0.01, 0.03),
         "stroke-to-stroke scatter of the path speed: no source, 1 % an assumption; 0 an "
-        "exact servo, 3 % a loose one",
+        "exact servo, 0.25 % a timed path whose points repeat as a UR5's poses do "
+        "(sqrt(2) x 0.033 mm over the 14-20 mm between a stroke's edges), 3 % a loose one",
+    ),
+    (
+        "variability",
+        "window_jitter_s",
+        (0.0, 0.02, 0.05),
+        "how closely the contact onset found in the signals places the window: a free "
+        "choice, 0 (exact) to 50 ms",
+    ),
+    (
+        "motion",
+        "force_loop_bandwidth_hz",
+        (1.0, 2.0, 5.0, 10.0),
+        "the force loop's closed-loop bandwidth: not published for UR force mode, 1-10 Hz "
+        "for a 125-500 Hz admittance loop with a sample or two of latency",
+    ),
+    (
+        "finger",
+        "pad_mass_kg",
+        (0.001, 0.002, 0.003, 0.004),
+        "the mass below the PDMS support (skin pad, films, the support's moving half): not "
+        "measured, 1-4 g; the mount's modes move from 665 / 537 Hz (shear / rocking, 1 g) "
+        "to 332 / 269 Hz (4 g)",
+    ),
+    (
+        "finger",
+        "ridge_spacing_m",
+        (0.3e-3, 0.45e-3, 0.6e-3),
+        "the printed fingerprint's ridge spacing, not dimensioned: human ridges lie about "
+        "0.5 mm apart (Maltoni et al.), a free choice of 0.3-0.6 mm",
+    ),
+    (
+        "pvdf",
+        "offset_m",
+        (3e-3, 4e-3, 4.5e-3),
+        "where the films' centres sit ahead of and behind the pad's axis, not dimensioned: "
+        "their 5 mm strips stay on the 7 mm pad's flank and apart, 3-4.5 mm",
     ),
     (
         *TEXTURE_SCALE,
