@@ -21,6 +21,11 @@ source gives; nothing is tuned per shape, material or class.
         stiffness the press compresses in series at the nominal force (the arm's servo,
         the PDMS support and the skin's Hertz contact); prints the three readings and the
         value the default is rounded from.
+    python3 scripts/calibrate.py speed [--set SECTION.FIELD=VALUE ...]
+        Not a calibration: what the path speed's scatter (Variability.speed_rel, an
+        assumption) would be if every point of a timed path repeated as a pose does: the
+        arm's repeatability over 3 at the first and last touch of each outline, over the
+        distance between them; prints it per outline and the largest.
     python3 scripts/calibrate.py gain [--set SECTION.FIELD=VALUE ...]
         The PVDF post-amplifier gain: the largest round gain (1-2-5 series) that keeps
         the worst edge transient of the perturbation grid (every shape x material at
@@ -179,6 +184,24 @@ def cmd_force(_args: argparse.Namespace) -> int:
     ):
         print(f"  {label}: depth sd {sd * 1e3:.4f} mm -> load scatter {100 * rel:.2f} %")
     print(f"Variability.force_rel = {got['value']:.3f} (series stiffness x depth sd / force)")
+    return 0
+
+
+def cmd_speed(args: argparse.Namespace) -> int:
+    config = settings.configured(args.set)
+    got = scatter.speed_scatter(config)
+    sd_mm = got["position_sd_m"] * 1e3
+    print(
+        f"a path point repeating as a pose: sd {sd_mm:.4f} mm (repeatability / 3); "
+        f"speed scatter sqrt(2) x sd / distance between the first and last touch:"
+    )
+    for shape, rel in got["per_shape"].items():
+        print(f"  {shape}: {got['phase_m'][shape] * 1e3:.1f} mm -> {100 * rel:.3f} %")
+    print(
+        f"largest {100 * got['value']:.3f} %; Variability.speed_rel = "
+        f"{config.variability.speed_rel:g} is an assumption (force mode's path tracking is "
+        "not published)"
+    )
     return 0
 
 
@@ -479,6 +502,11 @@ def main(argv: list[str] | None = None) -> int:
     sub.add_parser(
         "force", help="the stroke-to-stroke force scatter from the arm's repeatability"
     ).set_defaults(func=cmd_force)
+    p = sub.add_parser(
+        "speed", help="the speed scatter a path repeating as the arm's poses would have"
+    )
+    _add_set_option(p, "the finger and path to measure")
+    p.set_defaults(func=cmd_speed)
     p = sub.add_parser("mount", help="the PDMS support's stiffnesses and the pad's modes")
     _add_set_option(p, "the finger to derive")
     p.set_defaults(func=cmd_mount)

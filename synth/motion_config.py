@@ -185,8 +185,9 @@ class Variability:
     #: Relative error of the path speed: not measured for this rig either; an assumption.
     #: A timed path whose every point repeated as a UR5's poses do (one standard deviation
     #: 0.033 mm, "The force scatter" in ``docs/simulator.md``) would change the time
-    #: between a stroke's edges, 14-20 mm apart, by sqrt(2) x 0.033 mm over that stretch,
-    #: 0.23-0.33 %; force mode's path tracking is not published. ``scripts/calibrate.py
+    #: between a stroke's first and last touch of an outline, 19-29 mm apart, by sqrt(2)
+    #: x 0.033 mm over that stretch: 0.16-0.25 % (``scripts/calibrate.py speed``). How
+    #: closely UR force mode tracks its path is not published. ``scripts/calibrate.py
     #: sweep`` measures 0, 0.25 %, 1 % and 3 %.
     speed_rel: float = 0.01
     #: Stroke-to-stroke scatter of the friction coefficient on one specimen (coefficient

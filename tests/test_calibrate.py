@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 import importlib.util
 import json
+import math
 import re
 import types
 from pathlib import Path
@@ -790,6 +791,28 @@ def test_the_force_scatter_default_is_the_one_the_arms_repeatability_gives(capsy
     assert calibrate.main(["force"]) == 0
     out = capsys.readouterr().out
     assert f"Variability.force_rel = {config.variability.force_rel:.3f}" in out
+
+
+def test_the_speed_scatter_bound_is_the_repeatability_over_each_outlines_touches(capsys):
+    """A square 14 mm wide is first and last touched a touch distance before and after
+    its walls; the repeatability bound is sqrt(2) x (0.1 mm / 3) over that, the
+    shortest outline (the triangle) gives the largest, and a path that misses an outline
+    is refused naming the option."""
+    config = synth.SynthConfig()
+    got = scatter.speed_scatter(config)
+    reach = synth.planning.touch_distance_m(config, 1.0)
+    step = synth.planning.TOUCH_STEP_M  # the touch search's resolution, at each end
+    assert got["phase_m"]["square"] == pytest.approx(14e-3 + 2 * reach, abs=2 * step)
+    assert got["per_shape"]["square"] == pytest.approx(
+        math.sqrt(2) * (0.1e-3 / 3) / got["phase_m"]["square"], rel=1e-12
+    )
+    assert got["value"] == got["per_shape"]["triangle"] == max(got["per_shape"].values())
+    assert 0.002 < got["value"] < 0.003
+    calibrate = _calibrate_module()
+    assert calibrate.main(["speed"]) == 0
+    assert "triangle: 18.6 mm -> 0.253 %" in capsys.readouterr().out
+    with pytest.raises(SystemExit, match=r"^motion.path_y_m: the path at y = 9.00 mm misses"):
+        calibrate.main(["speed", "--set", "motion.path_y_m=0.009"])
 
 
 def test_the_force_scatter_follows_the_finger_it_is_derived_from():

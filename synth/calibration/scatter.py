@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..config import SynthConfig
+from .settings import CalibrationError
 
 #: Repeated-sliding measurements of silicone on PLA (their source and licence are in the
 #: file's header).
@@ -113,4 +114,38 @@ def force_scatter(config: SynthConfig) -> dict:
         "value": k * sd_axis / NOMINAL_FORCE_N,
         "gaussian_3d": k * sd_3d / NOMINAL_FORCE_N,
         "gaussian_1d": k * sd_1d / NOMINAL_FORCE_N,
+    }
+
+
+def speed_scatter(config: SynthConfig) -> dict:
+    """How much a timed path that repeats as the arm's poses do would scatter the path
+    speed from stroke to stroke, per built-in outline of ``config``'s paper grid: the
+    time between a stroke's first and last touch of the outline is the distance between
+    them, ``L`` (at the nominal force, on the configured path), over the speed, and
+    each end lies where that stroke's path puts it at that time, a pose's repeatability
+    ``s`` (the arm's over 3, as :func:`force_scatter` reads it) from the mean; the two
+    ends' errors, independent at worst, change the mean speed between them by
+    ``sqrt(2) s / L`` (relative). A bound under the assumption that every point of the
+    path repeats as a pose does: how closely UR force mode tracks its path along the
+    slide is not published, and ``Variability.speed_rel`` stays an assumption."""
+    from .. import planning
+    from ..presets import NOMINAL_FORCE_N, PRESETS
+
+    reach = planning.touch_distance_m(config, NOMINAL_FORCE_N)
+    sd = ARM_REPEATABILITY_M / 3
+    phase = {}
+    for shape in PRESETS["paper"].shapes:
+        try:
+            d_in, d_out = planning.contact_phase_m(
+                config.specimen(shape), config.motion.path_y_m, 0.0, reach
+            )
+        except ValueError as exc:  # the path misses an outline
+            raise CalibrationError(f"motion.path_y_m: {exc}") from None
+        phase[shape] = d_out - d_in
+    per_shape = {shape: math.sqrt(2) * sd / length for shape, length in phase.items()}
+    return {
+        "position_sd_m": sd,
+        "phase_m": phase,
+        "per_shape": per_shape,
+        "value": max(per_shape.values()),
     }

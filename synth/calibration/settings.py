@@ -205,7 +205,8 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
         (0.0, 0.0025, 0.01, 0.03),
         "stroke-to-stroke scatter of the path speed: no source, 1 % an assumption; 0 an "
         "exact servo, 0.25 % a timed path whose points repeat as a UR5's poses do "
-        "(sqrt(2) x 0.033 mm over the 14-20 mm between a stroke's edges), 3 % a loose one",
+        "(sqrt(2) x 0.033 mm over the 19-29 mm between an outline's first and last "
+        "touch, at most 0.25 %: calibrate.py speed), 3 % a loose one",
     ),
     (
         "variability",
