@@ -35,7 +35,10 @@ class StrainGauge:
     #: Input-referred voltage noise density of the instrumentation amplifier: 9 nV/sqrt(Hz)
     #: for an AD620, 38 for an INA125 (data sheets, at 1 kHz).
     amplifier_noise_v_per_sqrt_hz: float = 20e-9
-    #: DC-coupled low-pass of the conditioning (static channels).
+    #: DC-coupled low-pass of the conditioning (static channels). The finger's description
+    #: does not give the conditioning: a free choice, plausible 10-400 Hz (a static
+    #: reading up to the DAQ's anti-alias corner), which ``scripts/calibrate.py sweep``
+    #: measures.
     lowpass_hz: float = 100.0
     #: Unbalance of the bridge at zero load, as strain (resistor tolerance after nulling).
     offset_strain: float = 2e-6
@@ -112,7 +115,8 @@ class PVDF:
     #: 1.5 (the distance to the film, 4 mm, to its length, 5 mm, and below).
     shear_strain_per_n: float = 2.81e-4
     #: Electrode length (along the sliding direction) and width: a strip that fits on the
-    #: pad's front / rear flank.
+    #: pad's front / rear flank. Not dimensioned in the finger's description: free
+    #: choices; the sweep measures lengths of 3-6 mm.
     length_m: float = 5.0e-3
     width_m: float = 4.0e-3
     #: Position of each film's centre: this far ahead of (front) and behind (rear) the

@@ -245,6 +245,20 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
         "their 5 mm strips stay on the 7 mm pad's flank and apart, 3-4.5 mm",
     ),
     (
+        "pvdf",
+        "length_m",
+        (3e-3, 5e-3, 6e-3),
+        "the films' electrode length along the path, not dimensioned: a strip on the 7 mm "
+        "pad's flank, 3-6 mm",
+    ),
+    (
+        "strain_gauge",
+        "lowpass_hz",
+        (10.0, 100.0, 400.0),
+        "the bridge conditioning's low-pass, not described: a free choice from 10 Hz (a "
+        "static reading) to 400 Hz (none below the DAQ's anti-alias corner)",
+    ),
+    (
         *TEXTURE_SCALE,
         (0.0, 0.5, 1.0, 2.0),
         "sensitivity, not a calibration: every material's texture scaled; at 0 the "
