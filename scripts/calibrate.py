@@ -43,7 +43,8 @@ source gives; nothing is tuned per shape, material or class.
                                        [--set SECTION.FIELD=VALUE] [--out DIR [--resume]]
         Each global parameter of SWEEP over its cited range, and each material's surface
         figures (``materials.MATERIAL.FIELD``) over their measured ranges or a free
-        choice's plausible one (one at a time, the others at their defaults, or at the
+        choice's plausible one, and each gauge's height (``finger.gauge_heights_m.I``)
+        (one at a time, the others at their defaults, or at the
         values ``--base`` sets, each within its parameter's cited range, to see how two
         parameters act together; ``--set`` changes any numeric field of the
         configuration the sweep starts from, as whatif's does): generates the paper
@@ -99,8 +100,9 @@ source gives; nothing is tuned per shape, material or class.
         ``materials.MATERIAL.kinetic_friction`` gives one material a friction level of
         its own, its static coefficient in the same ratio; ``materials.MATERIAL.FIELD``
         with FIELD ``roughness_rms_m``, ``correlation_length_m`` or ``mark_amplitude_m``
-        one material's surface), to
-        measure what the real finger would have to be for a target to be met; without
+        one material's surface; ``finger.gauge_heights_m.0`` or ``.1`` one gauge's
+        height), to measure what the real finger would have to be for a target to be
+        met; without
         ``--set``, the defaults. Prints the sweep's metrics over the seeds and, with
         ``--closed-set N``, AFOP-ML's closed-set 1-shot row over N episodes on a
         paper-preset dataset (seed 0) of that configuration, with the fit's D, PVDF share

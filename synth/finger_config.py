@@ -90,6 +90,9 @@ class Finger:
     #: Irregularity of the ridge spacing (real fingerprints are not perfectly periodic).
     ridge_jitter: float = 0.25
     #: Height of the two strain-gauge sites above the pad's mount (phalanx as a cantilever).
+    #: Not dimensioned in the finger's description: free choices, plausible 8-16 mm (front
+    #: gauge) and 16-24 mm (side gauge), which ``scripts/calibrate.py sweep`` measures
+    #: (``finger.gauge_heights_m.0`` and ``.1``).
     gauge_heights_m: tuple[float, ...] = (0.012, 0.020)
     #: The finger's pitch: the phalanx turned about the lateral (y) axis, the same axis
     #: and sign as the pad's rocking on its support. 0: upright, as the paper's finger

@@ -410,6 +410,34 @@ def test_set_gives_one_material_a_surface_of_its_own_and_the_sweep_spans_them(tm
         settings.configured(["materials.wood.correlation_length_m=-1"])
 
 
+def test_set_moves_one_gauge_and_the_sweep_spans_both_heights():
+    """``finger.gauge_heights_m.I`` sets gauge I's height alone, the sweep's candidates
+    move each gauge around its default, and a height the finger refuses or an index it
+    has not is refused by name."""
+    base = synth.SynthConfig()
+    config = settings.configured(["finger.gauge_heights_m.1=0.024"])
+    assert config.finger.gauge_heights_m == (base.finger.gauge_heights_m[0], 0.024)
+    assert settings.default_value(config, "finger", "gauge_heights_m.1") == 0.024
+    rows = list(sweep.candidates(base, ["finger.gauge_heights_m.0"]))
+    assert [(v, d) for _, _, v, _, d, _ in rows] == [(0.008, False), (0.012, True), (0.016, False)]
+    assert rows[0][5].finger.gauge_heights_m == (0.008, base.finger.gauge_heights_m[1])
+    # the gauge's reading follows its height: the moment at it is the torque minus H x Fx
+    mech = sensors.Mechanics(
+        mount_force=np.array([[[1.0, 0.0, 0.0]]]),
+        mount_torque=np.zeros((1, 1, 3)),
+        contact_ahead_m=np.zeros((1, 1)),
+        indentation_m=np.zeros((1, 1)),
+        traction_n=np.zeros((1, 1)),
+    )
+    low, high = (sensors.gauge_strains(mech, r[5].finger, base.strain_gauge) for r in rows[::2])
+    assert high[0, 0, 0] / low[0, 0, 0] == pytest.approx(2.0)
+    for item in ("finger.gauge_heights_m.2=0.01", "finger.gauge_heights_m=0.01"):
+        with pytest.raises(CalibrationError, match=r"^--set must be SECTION.FIELD=VALUE .*gauge"):
+            settings.configured([item])
+    with pytest.raises(CalibrationError, match=r"^--set finger.gauge_heights_m.0=-1: Finger.gauge"):
+        settings.configured(["finger.gauge_heights_m.0=-1"])
+
+
 @pytest.mark.slow
 def test_gain_sizes_the_default_post_gain_and_any_configurations(monkeypatch, capsys):
     """The default post-gain is the one the script sizes; a film carrier that multiplies

@@ -59,6 +59,9 @@ KINETIC_FRICTION = "kinetic_friction"
 TEXTURE_FIELDS = ("roughness_rms_m", "correlation_length_m", "mark_amplitude_m")
 #: Every ``materials.MATERIAL.<field>`` a setting may name.
 MATERIAL_FIELDS = (KINETIC_FRICTION, *TEXTURE_FIELDS)
+#: ``finger.<this>.I``: the height of gauge I (0 the front face's, 1 the side face's) of
+#: the tuple ``Finger.gauge_heights_m``, one number each.
+GAUGE_HEIGHTS = "gauge_heights_m"
 #: Configuration sections whose numeric fields ``--set`` may change.
 SECTIONS = ("finger", "motion", "variability", "strain_gauge", "pvdf", "acquisition")
 
@@ -259,6 +262,20 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
         "static reading) to 400 Hz (none below the DAQ's anti-alias corner)",
     ),
     (
+        "finger",
+        "gauge_heights_m.0",
+        (0.008, 0.012, 0.016),
+        "the front gauge's height above the pad's mount on the phalanx, not dimensioned: "
+        "a free choice of 8-16 mm",
+    ),
+    (
+        "finger",
+        "gauge_heights_m.1",
+        (0.016, 0.020, 0.024),
+        "the side gauge's height above the pad's mount on the phalanx, not dimensioned: a "
+        "free choice of 16-24 mm",
+    ),
+    (
         *TEXTURE_SCALE,
         (0.0, 0.5, 1.0, 2.0),
         "sensitivity, not a calibration: every material's texture scaled; at 0 the "
@@ -290,6 +307,15 @@ def material_field(config: SynthConfig, section: str, field: str) -> tuple[str, 
     name, _, rest = field.partition(".")
     if section == "materials" and rest in MATERIAL_FIELDS and name in config.materials:
         return name, rest
+    return None
+
+
+def gauge_index(section: str, field: str) -> int | None:
+    """``I`` when ``section.field`` is ``finger.gauge_heights_m.I`` (one gauge's height,
+    ``I`` 0 or 1), or None."""
+    name, _, index = field.partition(".")
+    if section == "finger" and name == GAUGE_HEIGHTS and index in ("0", "1"):
+        return int(index)
     return None
 
 
@@ -325,10 +351,17 @@ def with_value(config: SynthConfig, section: str, field: str, value: float) -> S
     :data:`MATERIAL_FACTORS` scales every material's texture instead;
     ``materials.MATERIAL.kinetic_friction`` sets that material's kinetic friction, its
     static coefficient kept in the same ratio, and ``materials.MATERIAL.FIELD`` with
-    FIELD one of :data:`TEXTURE_FIELDS` that material's surface)."""
+    FIELD one of :data:`TEXTURE_FIELDS` that material's surface;
+    ``finger.gauge_heights_m.I`` gauge I's height)."""
     own = material_field(config, section, field)
     if own is not None:
         return _material_with(config, *own, value)
+    gauge = gauge_index(section, field)
+    if gauge is not None:
+        heights = list(config.finger.gauge_heights_m)
+        heights[gauge] = value
+        finger = dataclasses.replace(config.finger, gauge_heights_m=tuple(heights))
+        return dataclasses.replace(config, finger=finger)
     if (section, field) in MATERIAL_FACTORS:
         roughness = value if (section, field) == TEXTURE_SCALE else 1.0
         for material in config.materials.values():
@@ -348,6 +381,9 @@ def default_value(config: SynthConfig, section: str, field: str) -> float:
         if attr == "mark_amplitude_m":
             return _one_mark(config, name).amplitude_m
         return getattr(config.materials[name].texture, attr)
+    gauge = gauge_index(section, field)
+    if gauge is not None:
+        return config.finger.gauge_heights_m[gauge]
     if (section, field) in MATERIAL_FACTORS:
         return 1.0
     return getattr(getattr(config, section), field)
@@ -357,14 +393,17 @@ def parse_set(items: list[str] | None) -> dict[tuple[str, str], float]:
     """``--set SECTION.FIELD=VALUE`` items as ``{(section, field): value}``: a numeric
     field of a configuration section (or ``materials.texture_scale``,
     ``materials.marks_scale`` or ``materials.MATERIAL.FIELD`` with FIELD one of
-    :data:`MATERIAL_FIELDS`), each set once; none gives an empty table."""
+    :data:`MATERIAL_FIELDS`, or ``finger.gauge_heights_m.I``, one gauge's height), each
+    set once; none gives an empty table."""
     defaults = SynthConfig()
     out: dict[tuple[str, str], float] = {}
     for item in items or ():
         name, sep, text = item.partition("=")
         section, _, field = name.partition(".")
-        special = (section, field) in MATERIAL_FACTORS or (
-            material_field(defaults, section, field) is not None
+        special = (
+            (section, field) in MATERIAL_FACTORS
+            or material_field(defaults, section, field) is not None
+            or gauge_index(section, field) is not None
         )
         known = special or (
             section in SECTIONS
@@ -376,7 +415,8 @@ def parse_set(items: list[str] | None) -> dict[tuple[str, str], float]:
                 "--set must be SECTION.FIELD=VALUE with a numeric field of "
                 f"{', '.join(SECTIONS)} (or materials.texture_scale, .marks_scale or "
                 f".MATERIAL.FIELD with MATERIAL one of {', '.join(defaults.materials)} and "
-                f"FIELD one of {', '.join(MATERIAL_FIELDS)}); got {item!r}"
+                f"FIELD one of {', '.join(MATERIAL_FIELDS)}, or finger.{GAUGE_HEIGHTS}.0 "
+                f"or .1); got {item!r}"
             )
         try:
             value = parse_number(text)
