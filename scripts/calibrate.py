@@ -407,9 +407,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                         args.seeds,
                     )
         except KeyboardInterrupt:
-            kept = f"; {len(rows)} rows are in {out / 'calibration.json'}" if out else ""
+            n_rows = len(kept) + len(rows)
+            where_kept = f"; {n_rows} rows are in {out / 'calibration.json'}" if out else ""
             again = " (add --resume to continue)" if out else ""
-            raise SystemExit(f"sweep interrupted{kept}{again}") from None
+            raise SystemExit(f"sweep interrupted{where_kept}{again}") from None
     if out is not None:
         print(f"wrote {out / 'calibration.md'} and calibration.json")
     return 0

@@ -207,6 +207,16 @@ def test_a_resumed_sweep_of_one_parameter_keeps_the_table_of_the_others(tmp_path
     assert len(calls) == 5 + 3  # yaw's default row is friction's, measured once
     table = (tmp_path / "calibration.md").read_text().splitlines()
     assert len(table) == 2 + 9 and table[6].startswith("| variability.friction_rel | 0.039 (")
+    # interrupted, it says how many rows the table holds, the kept ones with its own
+
+    def interrupted(config, trials_per_class, where, seed):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(measure, "evaluate", interrupted)
+    with pytest.raises(SystemExit, match=r"sweep interrupted; 9 rows are in .*--resume"):
+        calibrate.main(["sweep", "--only", "variability.force_rel", *out, "--resume"])
+    assert len(json.loads((tmp_path / "calibration.json").read_text())) == 9
+    monkeypatch.setattr(measure, "evaluate", evaluate)
     # from another base, the friction rows are not this table's
     argv = ["sweep", "--only", "variability.yaw_rad", *out, "--resume"]
     assert calibrate.main([*argv, "--set", "variability.force_rel=0.1"]) == 0
