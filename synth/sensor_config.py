@@ -23,7 +23,9 @@ class StrainGauge:
     (bending from lateral load); both also see the axial (normal) load.
     """
 
-    #: Phalanx as a square printed beam (PLA-like): modulus and cross-section side.
+    #: Phalanx as a square printed beam (PLA-like): modulus and cross-section side. The
+    #: section is not dimensioned in the finger's description: a free choice, plausible
+    #: 6-10 mm, which ``scripts/calibrate.py sweep`` measures.
     beam_modulus_pa: float = 3.5e9
     beam_side_m: float = 0.008
     #: Constantan foil gauge factor (2.0-2.2).
@@ -116,7 +118,7 @@ class PVDF:
     shear_strain_per_n: float = 2.81e-4
     #: Electrode length (along the sliding direction) and width: a strip that fits on the
     #: pad's front / rear flank. Not dimensioned in the finger's description: free
-    #: choices; the sweep measures lengths of 3-6 mm.
+    #: choices; the sweep measures lengths of 3-6 mm and widths of 3-5 mm.
     length_m: float = 5.0e-3
     width_m: float = 4.0e-3
     #: Position of each film's centre: this far ahead of (front) and behind (rear) the

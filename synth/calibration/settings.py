@@ -255,11 +255,25 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
         "pad's flank, 3-6 mm",
     ),
     (
+        "pvdf",
+        "width_m",
+        (3e-3, 4e-3, 5e-3),
+        "the films' electrode width across the path, not dimensioned: a strip on the 7 mm "
+        "pad's flank, 3-5 mm",
+    ),
+    (
         "strain_gauge",
         "lowpass_hz",
         (10.0, 100.0, 400.0),
         "the bridge conditioning's low-pass, not described: a free choice from 10 Hz (a "
         "static reading) to 400 Hz (none below the DAQ's anti-alias corner)",
+    ),
+    (
+        "strain_gauge",
+        "beam_side_m",
+        (6e-3, 8e-3, 10e-3),
+        "the printed phalanx's square section under the gauges, not dimensioned: 6-10 mm "
+        "(its bending strain per newton goes as the side's cube)",
     ),
     (
         "finger",
