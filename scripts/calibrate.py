@@ -100,9 +100,9 @@ source gives; nothing is tuned per shape, material or class.
         ``materials.MATERIAL.kinetic_friction`` gives one material a friction level of
         its own, its static coefficient in the same ratio; ``materials.MATERIAL.FIELD``
         with FIELD ``roughness_rms_m``, ``correlation_length_m`` or ``mark_amplitude_m``
-        one material's surface; ``finger.gauge_heights_m.0`` or ``.1`` one gauge's
-        height), to measure what the real finger would have to be for a target to be
-        met; without
+        one material's surface; ``materials.stribeck_velocity_m_s`` every material's
+        Stribeck velocity; ``finger.gauge_heights_m.0`` or ``.1`` one gauge's height), to
+        measure what the real finger would have to be for a target to be met; without
         ``--set``, the defaults. Prints the sweep's metrics over the seeds and, with
         ``--closed-set N``, AFOP-ML's closed-set 1-shot row over N episodes on a
         paper-preset dataset (seed 0) of that configuration, with the fit's D, PVDF share

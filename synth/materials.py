@@ -44,6 +44,8 @@ class FrictionLaw:
     #: for silicone on these surfaces; 1 mm/s is the order of a contact-renewal length of a
     #: few micrometres over the millisecond relaxation time of a soft elastomer, well
     #: below the 6-14 mm/s sliding speeds, so sliding itself runs at the kinetic level.
+    #: A free choice; ``scripts/calibrate.py sweep`` measures 0.3-3 mm/s for every
+    #: material at once (``materials.stribeck_velocity_m_s``).
     stribeck_velocity_m_s: float = 1.0e-3
     #: Exponent of the load dependence: -0.21 measured for a finger pad over 1-20 N (Seo
     #: et al. 2009, Ergonomics 52: coefficient down 46 % from 1 to 20 N); Hertz with a

@@ -420,6 +420,24 @@ def test_set_gives_one_material_a_surface_of_its_own_and_the_sweep_spans_them(tm
         settings.configured(["materials.wood.correlation_length_m=-1"])
 
 
+def test_set_gives_every_material_one_stribeck_velocity_and_the_law_follows_it():
+    """``materials.stribeck_velocity_m_s`` sets every material's, the rest of each law
+    kept; the coefficient at a slip of that speed sits where the law puts it
+    (``kinetic + (static - kinetic) / e``), and the sweep moves it around the default."""
+    base = synth.SynthConfig()
+    config = settings.configured(["materials.stribeck_velocity_m_s=3e-3"])
+    for name, material in config.materials.items():
+        law, old = material.friction, base.materials[name].friction
+        assert law == dataclasses.replace(old, stribeck_velocity_m_s=3e-3)
+        mu = contact.friction_coefficient(law, 3e-3, 1.0)
+        assert mu == pytest.approx(law.kinetic + (law.static - law.kinetic) / math.e)
+    assert settings.default_value(config, "materials", "stribeck_velocity_m_s") == 3e-3
+    rows = list(sweep.candidates(base, ["materials.stribeck_velocity_m_s"]))
+    assert [(v, d) for _, _, v, _, d, _ in rows] == [(0.3e-3, False), (1e-3, True), (3e-3, False)]
+    with pytest.raises(CalibrationError, match=r"^--set materials.stribeck_velocity_m_s=0: "):
+        settings.configured(["materials.stribeck_velocity_m_s=0"])
+
+
 def test_set_moves_one_gauge_and_the_sweep_spans_both_heights():
     """``finger.gauge_heights_m.I`` sets gauge I's height alone, the sweep's candidates
     move each gauge around its default, and a height the finger refuses or an index it

@@ -59,6 +59,9 @@ KINETIC_FRICTION = "kinetic_friction"
 TEXTURE_FIELDS = ("roughness_rms_m", "correlation_length_m", "mark_amplitude_m")
 #: Every ``materials.MATERIAL.<field>`` a setting may name.
 MATERIAL_FIELDS = (KINETIC_FRICTION, *TEXTURE_FIELDS)
+#: ``materials.<this>``: the Stribeck velocity of every material's friction law (one
+#: value for all: no source gives one per material).
+STRIBECK = ("materials", "stribeck_velocity_m_s")
 #: ``finger.<this>.I``: the height of gauge I (0 the front face's, 1 the side face's) of
 #: the tuple ``Finger.gauge_heights_m``, one number each.
 GAUGE_HEIGHTS = "gauge_heights_m"
@@ -290,6 +293,13 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
         "free choice of 16-24 mm",
     ),
     (
+        *STRIBECK,
+        (0.3e-3, 1e-3, 3e-3),
+        "the slip speed over which the skin's friction falls from static to kinetic, not "
+        "measured: a contact-renewal length of micrometres over a soft elastomer's "
+        "millisecond relaxation, 0.3-3 mm/s, below the 6-14 mm/s sliding speeds",
+    ),
+    (
         *TEXTURE_SCALE,
         (0.0, 0.5, 1.0, 2.0),
         "sensitivity, not a calibration: every material's texture scaled; at 0 the "
@@ -366,10 +376,16 @@ def with_value(config: SynthConfig, section: str, field: str, value: float) -> S
     ``materials.MATERIAL.kinetic_friction`` sets that material's kinetic friction, its
     static coefficient kept in the same ratio, and ``materials.MATERIAL.FIELD`` with
     FIELD one of :data:`TEXTURE_FIELDS` that material's surface;
+    ``materials.stribeck_velocity_m_s`` every material's Stribeck velocity;
     ``finger.gauge_heights_m.I`` gauge I's height)."""
     own = material_field(config, section, field)
     if own is not None:
         return _material_with(config, *own, value)
+    if (section, field) == STRIBECK:
+        for material in config.materials.values():
+            law = dataclasses.replace(material.friction, stribeck_velocity_m_s=value)
+            config = config.with_material(dataclasses.replace(material, friction=law))
+        return config
     gauge = gauge_index(section, field)
     if gauge is not None:
         heights = list(config.finger.gauge_heights_m)
@@ -395,6 +411,8 @@ def default_value(config: SynthConfig, section: str, field: str) -> float:
         if attr == "mark_amplitude_m":
             return _one_mark(config, name).amplitude_m
         return getattr(config.materials[name].texture, attr)
+    if (section, field) == STRIBECK:  # the sweep sets one value for all materials
+        return max(m.friction.stribeck_velocity_m_s for m in config.materials.values())
     gauge = gauge_index(section, field)
     if gauge is not None:
         return config.finger.gauge_heights_m[gauge]
@@ -407,8 +425,9 @@ def parse_set(items: list[str] | None) -> dict[tuple[str, str], float]:
     """``--set SECTION.FIELD=VALUE`` items as ``{(section, field): value}``: a numeric
     field of a configuration section (or ``materials.texture_scale``,
     ``materials.marks_scale`` or ``materials.MATERIAL.FIELD`` with FIELD one of
-    :data:`MATERIAL_FIELDS`, or ``finger.gauge_heights_m.I``, one gauge's height), each
-    set once; none gives an empty table."""
+    :data:`MATERIAL_FIELDS`, ``materials.stribeck_velocity_m_s``, every material's, or
+    ``finger.gauge_heights_m.I``, one gauge's height), each set once; none gives an
+    empty table."""
     defaults = SynthConfig()
     out: dict[tuple[str, str], float] = {}
     for item in items or ():
@@ -418,6 +437,7 @@ def parse_set(items: list[str] | None) -> dict[tuple[str, str], float]:
             (section, field) in MATERIAL_FACTORS
             or material_field(defaults, section, field) is not None
             or gauge_index(section, field) is not None
+            or (section, field) == STRIBECK
         )
         known = special or (
             section in SECTIONS
@@ -429,8 +449,8 @@ def parse_set(items: list[str] | None) -> dict[tuple[str, str], float]:
                 "--set must be SECTION.FIELD=VALUE with a numeric field of "
                 f"{', '.join(SECTIONS)} (or materials.texture_scale, .marks_scale or "
                 f".MATERIAL.FIELD with MATERIAL one of {', '.join(defaults.materials)} and "
-                f"FIELD one of {', '.join(MATERIAL_FIELDS)}, or finger.{GAUGE_HEIGHTS}.0 "
-                f"or .1); got {item!r}"
+                f"FIELD one of {', '.join(MATERIAL_FIELDS)}, materials.{STRIBECK[1]}, or "
+                f"finger.{GAUGE_HEIGHTS}.0 or .1); got {item!r}"
             )
         try:
             value = parse_number(text)
