@@ -9,7 +9,8 @@ sets one material's kinetic friction coefficient (its static one keeps its ratio
 to ask what a friction level of its own per material would change;
 ``materials.MATERIAL.roughness_rms_m``, ``.correlation_length_m`` and
 ``.mark_amplitude_m`` set one material's surface, whose measured ranges and free choices
-the sweep spans.
+the sweep spans; ``materials.stribeck_velocity_m_s`` sets every material's Stribeck
+velocity, and ``finger.gauge_heights_m.0`` / ``.1`` one strain gauge's height.
 
 Examples
 --------
