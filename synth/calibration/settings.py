@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 
 from tactile_synth.validation import parse_number
 
@@ -371,54 +372,93 @@ def _material_with(config: SynthConfig, name: str, field: str, value: float) -> 
     return config.with_material(dataclasses.replace(material, texture=texture))
 
 
-def with_value(config: SynthConfig, section: str, field: str, value: float) -> SynthConfig:
-    """``config`` with ``section.field`` set to ``value`` (a material-wide factor of
-    :data:`MATERIAL_FACTORS` scales every material's texture instead;
-    ``materials.MATERIAL.kinetic_friction`` sets that material's kinetic friction, its
-    static coefficient kept in the same ratio, and ``materials.MATERIAL.FIELD`` with
-    FIELD one of :data:`TEXTURE_FIELDS` that material's surface;
-    ``materials.stribeck_velocity_m_s`` every material's Stribeck velocity;
-    ``finger.gauge_heights_m.I`` gauge I's height)."""
+@dataclasses.dataclass(frozen=True)
+class Setting:
+    """A setting that is not one plain numeric field of a configuration section: how to
+    read its value from a configuration and how to set it."""
+
+    read: Callable[[SynthConfig], float]
+    write: Callable[[SynthConfig, float], SynthConfig]
+
+
+def special_setting(config: SynthConfig, section: str, field: str) -> Setting | None:
+    """The setting ``section.field`` names when it is not a plain field, or None: a
+    material-wide factor of :data:`MATERIAL_FACTORS` (read as 1; it scales every
+    material's texture); ``materials.MATERIAL.kinetic_friction`` (that material's kinetic
+    friction, its static coefficient kept in the same ratio) and
+    ``materials.MATERIAL.FIELD`` with FIELD one of :data:`TEXTURE_FIELDS` (that
+    material's surface); ``materials.stribeck_velocity_m_s`` (every material's Stribeck
+    velocity, read as the largest); ``finger.gauge_heights_m.I`` (gauge I's height)."""
     own = material_field(config, section, field)
     if own is not None:
-        return _material_with(config, *own, value)
+        name, attr = own
+        return Setting(
+            lambda c: _material_value(c, name, attr),
+            lambda c, value: _material_with(c, name, attr, value),
+        )
+    if (section, field) in MATERIAL_FACTORS:
+        roughness_too = (section, field) == TEXTURE_SCALE
+        return Setting(
+            lambda c: 1.0,
+            lambda c, value: _texture_scaled(c, value, value if roughness_too else 1.0),
+        )
     if (section, field) == STRIBECK:
-        for material in config.materials.values():
-            law = dataclasses.replace(material.friction, stribeck_velocity_m_s=value)
-            config = config.with_material(dataclasses.replace(material, friction=law))
-        return config
+        return Setting(
+            lambda c: max(m.friction.stribeck_velocity_m_s for m in c.materials.values()),
+            _with_stribeck,
+        )
     gauge = gauge_index(section, field)
     if gauge is not None:
-        heights = list(config.finger.gauge_heights_m)
-        heights[gauge] = value
-        finger = dataclasses.replace(config.finger, gauge_heights_m=tuple(heights))
-        return dataclasses.replace(config, finger=finger)
-    if (section, field) in MATERIAL_FACTORS:
-        roughness = value if (section, field) == TEXTURE_SCALE else 1.0
-        for material in config.materials.values():
-            config = config.with_material(scaled_texture(material, value, roughness))
-        return config
+        return Setting(
+            lambda c: c.finger.gauge_heights_m[gauge],
+            lambda c, value: _with_gauge_height(c, gauge, value),
+        )
+    return None
+
+
+def _material_value(config: SynthConfig, name: str, attr: str) -> float:
+    if attr == KINETIC_FRICTION:
+        return config.materials[name].friction.kinetic
+    if attr == "mark_amplitude_m":
+        return _one_mark(config, name).amplitude_m
+    return getattr(config.materials[name].texture, attr)
+
+
+def _texture_scaled(config: SynthConfig, factor: float, roughness: float) -> SynthConfig:
+    for material in config.materials.values():
+        config = config.with_material(scaled_texture(material, factor, roughness))
+    return config
+
+
+def _with_stribeck(config: SynthConfig, value: float) -> SynthConfig:
+    for material in config.materials.values():
+        law = dataclasses.replace(material.friction, stribeck_velocity_m_s=value)
+        config = config.with_material(dataclasses.replace(material, friction=law))
+    return config
+
+
+def _with_gauge_height(config: SynthConfig, gauge: int, value: float) -> SynthConfig:
+    heights = list(config.finger.gauge_heights_m)
+    heights[gauge] = value
+    finger = dataclasses.replace(config.finger, gauge_heights_m=tuple(heights))
+    return dataclasses.replace(config, finger=finger)
+
+
+def with_value(config: SynthConfig, section: str, field: str, value: float) -> SynthConfig:
+    """``config`` with ``section.field`` set to ``value``: a plain field, or one of the
+    settings :func:`special_setting` knows."""
+    special = special_setting(config, section, field)
+    if special is not None:
+        return special.write(config, value)
     part = dataclasses.replace(getattr(config, section), **{field: value})
     return dataclasses.replace(config, **{section: part})
 
 
 def default_value(config: SynthConfig, section: str, field: str) -> float:
     """The configuration's value of a swept parameter (1 for the material factors)."""
-    own = material_field(config, section, field)
-    if own is not None:
-        name, attr = own
-        if attr == KINETIC_FRICTION:
-            return config.materials[name].friction.kinetic
-        if attr == "mark_amplitude_m":
-            return _one_mark(config, name).amplitude_m
-        return getattr(config.materials[name].texture, attr)
-    if (section, field) == STRIBECK:  # the sweep sets one value for all materials
-        return max(m.friction.stribeck_velocity_m_s for m in config.materials.values())
-    gauge = gauge_index(section, field)
-    if gauge is not None:
-        return config.finger.gauge_heights_m[gauge]
-    if (section, field) in MATERIAL_FACTORS:
-        return 1.0
+    special = special_setting(config, section, field)
+    if special is not None:
+        return special.read(config)
     return getattr(getattr(config, section), field)
 
 
@@ -434,12 +474,7 @@ def parse_set(items: list[str] | None) -> dict[tuple[str, str], float]:
     for item in items or ():
         name, sep, text = item.partition("=")
         section, _, field = name.partition(".")
-        special = (
-            (section, field) in MATERIAL_FACTORS
-            or material_field(defaults, section, field) is not None
-            or gauge_index(section, field) is not None
-            or (section, field) == STRIBECK
-        )
+        special = special_setting(defaults, section, field) is not None
         known = special or (
             section in SECTIONS
             and field in {f.name for f in dataclasses.fields(getattr(defaults, section))}
