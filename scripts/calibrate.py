@@ -315,18 +315,24 @@ def _measured_or_failed(
         return {"failed": str(exc)}
 
 
-def _at_own_gain(config: synth.SynthConfig, sized: dict) -> synth.SynthConfig | str:
-    """The candidate at the post-gain ``gain``'s rule sizes for it, or why none could be
-    sized (its trials at the grid's corner diverge, or no round gain fits the DAQ).
-    ``sized`` keeps each configuration's answer: the base recurs in every parameter's
-    sweep."""
+def _at_own_gain(
+    config: synth.SynthConfig, sized: dict, hold_gain: bool
+) -> tuple[synth.SynthConfig | str, str]:
+    """The candidate at the post-gain ``gain``'s rule sizes for it (as it is, with
+    ``hold_gain``), or why none could be sized (its trials at the grid's corner diverge,
+    or no round gain fits the DAQ); and the key its measurement is kept under (the
+    candidate's as measured, or as given when it cannot be). ``sized`` keeps each
+    configuration's answer: the base recurs in every parameter's sweep."""
+    if hold_gain:
+        return config, measure.config_key(config)
     key = measure.config_key(config)
     if key not in sized:
         try:
             sized[key] = gain.at_sized_gain(config)
         except (CalibrationError, synth.SimulationError) as exc:
             sized[key] = f"no post-gain could be sized for it: {exc}"
-    return sized[key]
+    own = sized[key]
+    return own, key if isinstance(own, str) else measure.config_key(own)
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
@@ -352,21 +358,19 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         where = Path(tmp) / "grid"
         if earlier:
-            own = base if hold_gain else _at_own_gain(base, sized)
-            base_key = measure.config_key(own if isinstance(own, synth.SynthConfig) else base)
+            _, base_key = _at_own_gain(base, sized, hold_gain)
             kept = sweep.kept_rows(earlier, base_key, sweep.swept_parameters(args.only, held))
         try:
             for section, field, value, why, is_default, config in sweep.candidates(
                 base, args.only, held
             ):
                 t0 = time.perf_counter()
-                own = config if hold_gain else _at_own_gain(config, sized)
+                own, key = _at_own_gain(config, sized, hold_gain)
                 if isinstance(own, str):  # no gain could be sized: the row says why
-                    key, post_gain = measure.config_key(config), None
+                    post_gain = None
                     done[key] = {"failed": own}
                 else:
                     config, post_gain = own, own.pvdf.post_gain
-                    key = measure.config_key(config)
                 if key not in done:
                     done[key] = reuse.get(key) or _measured_or_failed(
                         config, args.trials_per_class, args.seeds, where
