@@ -143,6 +143,7 @@ def parse_experiment(
     except ValueError as exc:
         raise ValueError(f"{file}: simulator: {exc}") from None
     synth = dataclasses.replace(synth, materials=materials, specimens=own)
+    synth = _skin_fitted(file, data.get("simulator"), synth)
     grid["shapes"] = tuple(shapes.specimen_name(s) for s in specimens)
     grid["materials"] = tuple(materials)
     # The paper's set-up is stored as None ("the simulator's defaults"), as the presets
@@ -199,6 +200,26 @@ def _simulator_settings(file: str, table: object) -> dict[str, Any]:
             raise ValueError(f"{where} must be a table of fields; got {values!r}")
         _check_keys(where, "field", values, tuple(base[section]))
     return overlay(base, table)
+
+
+def _skin_fitted(file: str, table: Mapping[str, Any] | None, config: SynthConfig) -> SynthConfig:
+    """``config`` with the skin's MuJoCo contact refitted to its Hertz law when the file's
+    ``[simulator.finger]`` changes what the law depends on (the pad's radius, the skin's
+    modulus or Poisson's ratio) and does not set the contact itself: the default contact
+    is fitted to the default skin, and a softer skin must sink deeper."""
+    from .skin_fit import HERTZ_FIELDS, SimulationError, with_fitted_skin
+
+    finger = (table or {}).get("finger") or {}
+    if not any(k in finger for k in HERTZ_FIELDS) or any(
+        k in finger for k in ("skin_solref", "skin_solimp")
+    ):
+        return config
+    try:
+        return with_fitted_skin(config)
+    except SimulationError as exc:
+        raise ValueError(
+            f"{file}: [simulator.finger]: the skin's contact cannot be fitted: {exc}"
+        ) from None
 
 
 def overlay(base: Mapping[str, Any], over: Mapping[str, Any]) -> dict[str, Any]:

@@ -17,6 +17,8 @@ class Finger:
 
     #: Fingertip pad radius; a human-sized fingertip is ~7-8 mm in radius, and it must
     #: drop into the moon's 12.5 mm notch (sag over 6.25 mm > 2 mm needs r < 10.8 mm).
+    #: Not dimensioned in the finger's description: a free choice, plausible 6-8 mm, which
+    #: ``scripts/calibrate.py sweep`` measures (refitting the skin's contact to each).
     pad_radius_m: float = 0.007
     #: Moving mass below the PDMS support: silicone skin pad, films and the support's
     #: moving half (a silicone hemisphere of 7 mm radius alone is ~0.8 g). Not measured
@@ -28,7 +30,8 @@ class Finger:
     #: Young's modulus of the PDMS support: Sylgard 184 at the usual 10:1 mix, 2.0 MPa
     #: (``E = 20 MPa / mix ratio`` over 5:1-33:1, 0.57-3.7 MPa, measured in compression:
     #: Wang, Volinsky & Gallant 2014, J. Appl. Polym. Sci. 131, 41050). Nearly
-    #: incompressible, so its shear modulus is ``E / 3``.
+    #: incompressible, so its shear modulus is ``E / 3``. The mix is not given: a free
+    #: choice over that range, which ``scripts/calibrate.py sweep`` measures.
     pdms_modulus_pa: float = 2.0e6
     #: The support's geometry, a PDMS disc bonded between the phalanx and the pad. The
     #: finger's description does not give it: a free choice that fits under the 14 mm
@@ -59,7 +62,10 @@ class Finger:
     pdms_damping_ratio: float = 0.15
     #: Young's modulus of the silicone skin: platinum-cure silicone of the Dragon Skin 20
     #: class, 0.29 MPa small-strain tensile modulus (Marechal et al. 2021, Soft Robotics
-    #: Materials Database); a human fingertip is 0.07-0.2 MPa (Oprisan et al. 2016).
+    #: Materials Database); a human fingertip is 0.07-0.2 MPa (Oprisan et al. 2016). The
+    #: paper names no compound ("soft skin"): a free choice, plausible 0.1-0.58 MPa (a
+    #: fingertip-soft silicone to a compound twice as hard), which ``scripts/calibrate.py
+    #: sweep`` measures (refitting the skin's contact to each; so does ``--set``).
     skin_modulus_pa: float = 0.29e6
     #: Poisson's ratio of silicone (nearly incompressible: 0.48-0.499).
     skin_poisson: float = 0.49

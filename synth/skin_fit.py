@@ -52,7 +52,9 @@ def measure_indentation(config: SynthConfig, forces_n: Sequence[float]) -> np.nd
     steps = -(-round(PRESS_S / mot.timestep_s) // k) * k
     flat = FeltSurface(origin_m=-0.03, height_m=np.zeros(8), slope=np.zeros(8))
     models, trials, states = [], [], []
-    law = cfg.materials["resin"].friction
+    # The press does not slide, so the friction law hardly matters: the configuration's
+    # first material's (resin's in the paper's set-up; an experiment may have no resin).
+    law = next(iter(cfg.materials.values())).friction
     for f in forces_n:
         model = sc.trial_model(law.static)
         data = mujoco.MjData(model)
@@ -142,3 +144,16 @@ def fit_skin_contact(config: SynthConfig) -> tuple[tuple[float, ...], tuple[floa
     return tuple(round(v, 6) for v in fitted.skin_solref), tuple(
         round(v, 6) for v in fitted.skin_solimp
     )
+
+
+#: The finger's fields Hertz's law of the skin depends on: a configuration that changes
+#: one needs the skin's contact refitted (:func:`with_fitted_skin`).
+HERTZ_FIELDS = ("pad_radius_m", "skin_modulus_pa", "skin_poisson")
+
+
+def with_fitted_skin(config: SynthConfig) -> SynthConfig:
+    """``config`` with ``Finger.skin_solref``/``skin_solimp`` fitted to its skin's Hertz law
+    (:func:`fit_skin_contact`, a few seconds)."""
+    solref, solimp = fit_skin_contact(config)
+    finger = dataclasses.replace(config.finger, skin_solref=solref, skin_solimp=solimp)
+    return dataclasses.replace(config, finger=finger)

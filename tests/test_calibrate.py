@@ -64,7 +64,7 @@ def test_sweep_refuses_fewer_than_one_seed_by_name(capsys):
 @pytest.mark.parametrize(
     ("item", "message"),
     [
-        ("finger.skin_modulus_pa=1e5", "--base must be SECTION.FIELD=VALUE"),
+        ("finger.phalanx_mass_kg=0.1", "--base must be SECTION.FIELD=VALUE"),
         ("variability.friction_rel", "--base must be SECTION.FIELD=VALUE"),
         ("variability.friction_rel=high", "--base variability.friction_rel needs a number"),
         ("variability.friction_rel=0_05", "--base variability.friction_rel needs a number"),
@@ -464,6 +464,48 @@ def test_set_moves_one_gauge_and_the_sweep_spans_both_heights():
             settings.configured([item])
     with pytest.raises(CalibrationError, match=r"^--set finger.gauge_heights_m.0=-1: Finger.gauge"):
         settings.configured(["finger.gauge_heights_m.0=-1"])
+
+
+@pytest.mark.slow
+def test_setting_the_skins_modulus_or_the_pads_radius_refits_its_contact_to_hertz():
+    """``--set finger.skin_modulus_pa`` / ``finger.pad_radius_m`` refit the skin's MuJoCo
+    contact, so that the simulated indentation follows the new skin's Hertz law as the
+    default's does; the default skin's contact would not (a skin 2.9 times softer sinks
+    twice as deep). The sweep moves both around their defaults, and the default value
+    gives the default configuration (no refit)."""
+    from synth.skin_fit import measure_indentation
+
+    base = synth.SynthConfig()
+    forces = (0.6, 1.0, 1.4)
+    for item in ("finger.skin_modulus_pa=0.1e6", "finger.pad_radius_m=0.006"):
+        config = settings.configured([item])
+        f = config.finger
+        hertz = contact.hertz_indentation_m(
+            np.array(forces), f.pad_radius_m, f.skin_modulus_pa, f.skin_poisson
+        )
+        np.testing.assert_allclose(measure_indentation(config, forces), hertz, rtol=0.05)
+        assert f.skin_solimp != base.finger.skin_solimp
+    stale = dataclasses.replace(
+        config,
+        finger=dataclasses.replace(
+            settings.configured(["finger.skin_modulus_pa=0.1e6"]).finger,
+            skin_solref=base.finger.skin_solref,
+            skin_solimp=base.finger.skin_solimp,
+        ),
+    )
+    f = stale.finger
+    hertz = contact.hertz_indentation_m(1.0, f.pad_radius_m, f.skin_modulus_pa, f.skin_poisson)
+    assert measure_indentation(stale, (1.0,))[0] < 0.7 * hertz
+    assert settings.configured(["finger.skin_modulus_pa=0.29e6"]) == base
+    for name, values in (
+        ("finger.skin_modulus_pa", (0.1e6, 0.29e6, 0.58e6)),
+        ("finger.pad_radius_m", (0.006, 0.007, 0.008)),
+    ):
+        rows = list(sweep.candidates(base, [name]))
+        got = [(v, d) for _, _, v, _, d, _ in rows]
+        assert got == [(values[0], False), (values[1], True), (values[2], False)]
+    with pytest.raises(CalibrationError, match=r"^--set finger.pad_radius_m=-0.007: Finger.pad"):
+        settings.configured(["finger.pad_radius_m=-0.007"])
 
 
 @pytest.mark.slow

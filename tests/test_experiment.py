@@ -135,6 +135,27 @@ def test_simulator_tables_set_only_the_fields_they_name(tmp_path):
     assert synth.finger == SynthConfig().finger
 
 
+def test_a_file_that_changes_the_skin_gets_its_contact_fitted_to_the_new_skin(tmp_path):
+    """A softer skin (or another pad radius) in ``[simulator.finger]`` refits the skin's
+    MuJoCo contact to its own Hertz law, also without resin among the materials (the
+    default contact would sink the 2.9 times softer skin half as deep as Hertz says);
+    a file that sets the contact itself keeps it."""
+    from synth import contact
+    from synth.skin_fit import measure_indentation
+
+    path = write(tmp_path, GOOD + "\n[simulator.finger]\nskin_modulus_pa = 0.1e6\n")
+    synth = SynthConfig.from_dict(load_experiment(path).synth)
+    f = synth.finger
+    assert f.skin_solimp != SynthConfig().finger.skin_solimp
+    hertz = contact.hertz_indentation_m(1.0, f.pad_radius_m, f.skin_modulus_pa, f.skin_poisson)
+    assert measure_indentation(synth, (1.0,))[0] == pytest.approx(hertz, rel=0.05)
+    own = (
+        "\n[simulator.finger]\nskin_modulus_pa = 0.1e6\nskin_solimp = [0.3, 0.95, 0.006, 0.5, 1]\n"
+    )
+    synth = SynthConfig.from_dict(load_experiment(write(tmp_path, GOOD + own)).synth)
+    assert synth.finger.skin_solimp == (0.3, 0.95, 0.006, 0.5, 1)
+
+
 def test_a_paper_experiment_stores_the_simulator_defaults_as_none(tmp_path):
     text = GOOD.replace('["glass", "cork"]', '["resin", "wood", "aluminum"]')
     text = text.split("[[material]]")[0].replace(_polygon_l_bracket(), "")

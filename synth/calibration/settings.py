@@ -10,7 +10,10 @@ to ask what a friction level of its own per material would change;
 ``materials.MATERIAL.roughness_rms_m``, ``.correlation_length_m`` and
 ``.mark_amplitude_m`` set one material's surface, whose measured ranges and free choices
 the sweep spans; ``materials.stribeck_velocity_m_s`` sets every material's Stribeck
-velocity, and ``finger.gauge_heights_m.0`` / ``.1`` one strain gauge's height.
+velocity, and ``finger.gauge_heights_m.0`` / ``.1`` one strain gauge's height. Setting
+the pad's radius or the skin's modulus or Poisson's ratio (:data:`SKIN_FIT_FIELDS`) refits
+the skin's MuJoCo contact to the new skin's Hertz law (:func:`synth.skin_fit.fit_skin_contact`),
+so that the simulated indentation follows it as the default skin's does.
 
 Examples
 --------
@@ -38,6 +41,7 @@ from tactile_synth.validation import parse_number
 
 from ..config import SynthConfig
 from ..materials import Material, Periodic
+from ..skin_fit import HERTZ_FIELDS
 
 
 class CalibrationError(ValueError):
@@ -67,6 +71,9 @@ STRIBECK = ("materials", "stribeck_velocity_m_s")
 #: ``finger.<this>.I``: the height of gauge I (0 the front face's, 1 the side face's) of
 #: the tuple ``Finger.gauge_heights_m``, one number each.
 GAUGE_HEIGHTS = "gauge_heights_m"
+#: ``finger.<one of these>``: the fields the skin's Hertz law depends on; setting one
+#: refits ``Finger.skin_solref`` / ``skin_solimp`` to the new law (a few seconds).
+SKIN_FIT_FIELDS = HERTZ_FIELDS
 #: Configuration sections whose numeric fields ``--set`` may change.
 SECTIONS = ("finger", "motion", "variability", "strain_gauge", "pvdf", "acquisition")
 
@@ -206,6 +213,32 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
         "pdms_diameter_m",
         (6e-3, 10e-3, 12e-3),
         "the PDMS support's diameter under the 14 mm pad, a free choice of 6-12 mm",
+    ),
+    (
+        "finger",
+        "pdms_modulus_pa",
+        (0.57e6, 2.0e6, 3.7e6),
+        "the PDMS support's modulus: Sylgard 184 from 33:1 to 5:1 base to curing agent "
+        "(Wang, Volinsky & Gallant 2014), the usual 10:1 the default; the mix is not "
+        "given, and the mount's modes move from 205 / 166 Hz (shear / rocking, 0.57 MPa) "
+        "to 522 / 422 Hz (3.7 MPa)",
+    ),
+    (
+        "finger",
+        "skin_modulus_pa",
+        (0.1e6, 0.29e6, 0.58e6),
+        "the skin's modulus: its silicone is not named; from a fingertip-soft 0.1 MPa (a "
+        "human fingertip is 0.07-0.2 MPa, Oprisan et al. 2016) over the Dragon Skin 20 "
+        "class's 0.29 MPa (the default) to twice that, a harder compound; the skin's "
+        "contact is refitted to each modulus's Hertz law",
+    ),
+    (
+        "finger",
+        "pad_radius_m",
+        (0.006, 0.007, 0.008),
+        "the pad's radius, not dimensioned: a free choice of 6-8 mm, a human fingertip's "
+        "size, under the 10.8 mm the moon's 12.5 mm notch allows; the skin's contact is "
+        "refitted to each radius's Hertz law",
     ),
     (
         "variability",
@@ -388,7 +421,9 @@ def special_setting(config: SynthConfig, section: str, field: str) -> Setting | 
     friction, its static coefficient kept in the same ratio) and
     ``materials.MATERIAL.FIELD`` with FIELD one of :data:`TEXTURE_FIELDS` (that
     material's surface); ``materials.stribeck_velocity_m_s`` (every material's Stribeck
-    velocity, read as the largest); ``finger.gauge_heights_m.I`` (gauge I's height)."""
+    velocity, read as the largest); ``finger.gauge_heights_m.I`` (gauge I's height);
+    ``finger.FIELD`` with FIELD one of :data:`SKIN_FIT_FIELDS` (the skin's contact refitted
+    to its new Hertz law)."""
     own = material_field(config, section, field)
     if own is not None:
         name, attr = own
@@ -412,6 +447,11 @@ def special_setting(config: SynthConfig, section: str, field: str) -> Setting | 
         return Setting(
             lambda c: c.finger.gauge_heights_m[gauge],
             lambda c, value: _with_gauge_height(c, gauge, value),
+        )
+    if section == "finger" and field in SKIN_FIT_FIELDS:
+        return Setting(
+            lambda c: getattr(c.finger, field),
+            lambda c, value: _with_refitted_skin(c, field, value),
         )
     return None
 
@@ -442,6 +482,23 @@ def _with_gauge_height(config: SynthConfig, gauge: int, value: float) -> SynthCo
     heights[gauge] = value
     finger = dataclasses.replace(config.finger, gauge_heights_m=tuple(heights))
     return dataclasses.replace(config, finger=finger)
+
+
+def _with_refitted_skin(config: SynthConfig, field: str, value: float) -> SynthConfig:
+    """``config`` with the finger's ``field`` at ``value`` and the skin's MuJoCo contact
+    fitted to the resulting Hertz law; the fit's failure is a one-line refusal."""
+    from ..simulator import SimulationError
+    from ..skin_fit import with_fitted_skin
+
+    if getattr(config.finger, field) == value:  # the skin as it is: its fit stands
+        return config
+    changed = dataclasses.replace(
+        config, finger=dataclasses.replace(config.finger, **{field: value})
+    )
+    try:
+        return with_fitted_skin(changed)
+    except SimulationError as exc:
+        raise CalibrationError(f"the skin's contact cannot be fitted to this skin: {exc}") from None
 
 
 def with_value(config: SynthConfig, section: str, field: str, value: float) -> SynthConfig:
