@@ -38,6 +38,12 @@ source gives; nothing is tuned per shape, material or class.
         and shear coupling it gives the films (:func:`synth.sensors.film_on_carrier`),
         the post-gain ``gain`` sizes for them, and the ``whatif --set`` options that
         measure that film.
+    python3 scripts/calibrate.py fingerprint [--force-n 1] [--draws 200] [--set ...]
+        Not a calibration: how much of each material's periodic marks the fingerprint
+        passes on under the load (:func:`synth.calibration.finger.fingerprint_gains`):
+        the ridges in the contact adding the mark's phases, each ridge's sharp-edged
+        average over its width as the model takes it, beside a rounded ridge's, and how
+        the finger's one draw of its ridges' irregularity ranks among other draws.
     python3 scripts/calibrate.py sweep [--trials-per-class 20] [--seeds 1]
                                        [--only SECTION.FIELD] [--base SECTION.FIELD=VALUE]
                                        [--set SECTION.FIELD=VALUE] [--out DIR [--resume]]
@@ -203,6 +209,34 @@ def cmd_speed(args: argparse.Namespace) -> int:
         f"largest {100 * got['value']:.3f} %; Variability.speed_rel = "
         f"{config.variability.speed_rel:g} is an assumption (force mode's path tracking is "
         "not published)"
+    )
+    return 0
+
+
+def cmd_fingerprint(args: argparse.Namespace) -> int:
+    config = settings.configured(args.set)
+    got = finger.fingerprint_gains(config, args.force_n, args.draws)
+    f = config.finger
+    print(
+        f"at {args.force_n:g} N: {got['ridges']} ridges in a contact "
+        f"{2e3 * got['contact_radius_m']:.2f} mm across, {f.ridge_width_m * 1e3:g} mm wide, "
+        f"{f.ridge_spacing_m * 1e3:g} mm apart +-{100 * f.ridge_jitter:g} %"
+    )
+    print(
+        f"{'material':<10} {'mark (um)':>9} {'comb':>6} {'box':>7} {'felt':>6} "
+        f"{'rounded':>8} {'felt':>6}   comb over {args.draws} other draws"
+    )
+    for m in got["marks"]:
+        print(
+            f"{m['material']:<10} {m['wavelength_m'] * 1e6:>9.0f} {m['comb']:>6.3f} "
+            f"{m['box']:>+7.3f} {abs(m['comb'] * m['box']):>6.3f} {m['rounded']:>+8.3f} "
+            f"{abs(m['comb'] * m['rounded']):>6.3f}   median {m['comb_median']:.3f}, 90th "
+            f"percentile {m['comb_p90']:.3f}; this draw above {m['percentile']:.0f} %"
+        )
+    print(
+        "comb: the ridges' chord-weighted sum of the mark's phases; box: each ridge's "
+        "even average over its width (the model's); rounded: a ridge pressing with an "
+        "elliptical profile (not the model's); felt: comb x width gain"
     )
     return 0
 
@@ -529,6 +563,13 @@ def main(argv: list[str] | None = None) -> int:
         help="a carrier thickness in metres (repeatable; default the stocks from 23e-6 to 125e-6)",
     )
     p.set_defaults(func=cmd_carrier)
+    p = sub.add_parser(
+        "fingerprint", help="the periodic marks the fingerprint passes on (not a calibration)"
+    )
+    p.add_argument("--force-n", type=float_arg, default=1.0, help="the normal load (N)")
+    p.add_argument("--draws", type=int_arg, default=200, help="other draws of the ridges")
+    _add_set_option(p, "the finger to measure")
+    p.set_defaults(func=cmd_fingerprint)
     sub.add_parser(
         "update", help="the surface update period against a 1 ms update (not a calibration)"
     ).set_defaults(func=cmd_update)
@@ -600,6 +641,10 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--closed-set must be 0 (off) or a number of episodes")
     if getattr(args, "top", 1) < 1:
         parser.error("--top must be at least 1")
+    if getattr(args, "draws", 1) < 1:
+        parser.error("--draws must be at least 1")
+    if getattr(args, "force_n", 1.0) <= 0:
+        parser.error("--force-n must be a load above 0 N")
     if getattr(args, "closed_set_seeds", 1) < 1:
         parser.error("--closed-set-seeds must be at least 1")
     if getattr(args, "closed_set_seeds", 1) > 1 and not args.closed_set:

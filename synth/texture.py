@@ -161,6 +161,13 @@ def touching_ridges(finger: Finger, contact_radius_m: float) -> tuple[np.ndarray
     offsets = ridge_offsets(finger)
     if finger.ridges_in_contact is not None:
         return offsets, np.ones(offsets.size)
+    return chord_weighted(offsets, contact_radius_m)
+
+
+def chord_weighted(offsets: np.ndarray, contact_radius_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(offsets, weights)`` of the ridges at ``offsets`` inside a contact circle of radius
+    ``contact_radius_m``, each weighted by its chord (the nearest ridge alone, weight 1, if
+    the circle holds none)."""
     inside = np.abs(offsets) < contact_radius_m
     if not inside.any():
         return offsets[[np.argmin(np.abs(offsets))]], np.ones(1)
@@ -168,9 +175,19 @@ def touching_ridges(finger: Finger, contact_radius_m: float) -> tuple[np.ndarray
     return offsets, 2.0 * np.sqrt(contact_radius_m**2 - offsets**2)
 
 
+#: The seed of the finger's fingerprint: its ridges' irregularity is one fixed draw.
+FINGERPRINT_SEED = 0x5EED_F1
+
+
 @functools.lru_cache(maxsize=8)
 def _ridge_offsets(n: int, spacing_m: float, jitter: float) -> np.ndarray:
-    rng = np.random.default_rng(np.random.SeedSequence(0x5EED_F1))
+    return ridge_draw(n, spacing_m, jitter, FINGERPRINT_SEED)
+
+
+def ridge_draw(n: int, spacing_m: float, jitter: float, seed: int) -> np.ndarray:
+    """Positions of ``n`` ridges ``spacing_m`` apart, each gap scattered uniformly by
+    +-``jitter`` of it (the draw of ``seed``), centred on 0."""
+    rng = np.random.default_rng(np.random.SeedSequence(seed))
     gaps = spacing_m * (1 + jitter * rng.uniform(-1, 1, size=n - 1))
     pos = np.concatenate([[0.0], np.cumsum(gaps)])
     return pos - pos.mean()

@@ -508,6 +508,47 @@ def test_setting_the_skins_modulus_or_the_pads_radius_refits_its_contact_to_hert
         settings.configured(["finger.pad_radius_m=-0.007"])
 
 
+def test_fingerprint_gains_follow_the_ridges_places_and_widths(capsys):
+    """The fingerprint passes a periodic mark by the ridges' phases and each ridge's width:
+    a regular comb 4.5 feed periods apart cancels the 0.1 mm feed marks ridge against
+    ridge, a ridge as wide as a mark's wavelength averages it away, and a mark much longer
+    than the contact reaches every ridge in phase; the finger's own draw ranks among the
+    others as its comb gain says. The command prints the table and refuses bad options."""
+    from synth.calibration.finger import fingerprint_gains
+
+    base = synth.SynthConfig()
+    got = fingerprint_gains(base, 1.0, draws=50)
+    assert got["ridges"] == 10
+    feed = next(m for m in got["marks"] if m["material"] == "aluminum")
+    assert feed["box"] == pytest.approx(np.sinc(1.5))  # 0.15 mm ridges on a 0.1 mm mark
+    assert abs(feed["rounded"]) < abs(feed["box"])
+    assert 0 < feed["comb"] < 1 and 0 <= feed["percentile"] <= 100
+    regular = dataclasses.replace(base.finger, ridge_jitter=0.0, ridge_width_m=0.1e-3)
+    got = fingerprint_gains(dataclasses.replace(base, finger=regular), 1.0, draws=5)
+    feed = next(m for m in got["marks"] if m["material"] == "aluminum")
+    assert feed["comb"] < 1e-6 and abs(feed["box"]) < 1e-12
+    assert feed["comb_median"] == pytest.approx(feed["comb"], abs=1e-9)  # every draw alike
+    long = dataclasses.replace(base.materials["wood"].texture.periodic[0], wavelength_m=1.0)
+    wood = dataclasses.replace(
+        base.materials["wood"],
+        texture=dataclasses.replace(base.materials["wood"].texture, periodic=(long,)),
+    )
+    got = fingerprint_gains(base.with_material(wood), 1.0, draws=5)
+    swell = next(m for m in got["marks"] if m["material"] == "wood")
+    assert swell["comb"] > 0.999 and swell["box"] > 0.999
+    calibrate = _calibrate_module()
+    assert calibrate.main(["fingerprint", "--draws", "20"]) == 0
+    out = capsys.readouterr().out
+    assert "10 ridges in a contact 4.79 mm across" in out and "aluminum" in out
+    for argv, message in (
+        (["fingerprint", "--draws", "0"], "--draws must be at least 1"),
+        (["fingerprint", "--force-n", "0"], "--force-n must be a load above 0 N"),
+    ):
+        with pytest.raises(SystemExit):
+            calibrate.main(argv)
+        assert message in capsys.readouterr().err
+
+
 @pytest.mark.slow
 def test_gain_sizes_the_default_post_gain_and_any_configurations(monkeypatch, capsys):
     """The default post-gain is the one the script sizes; a film carrier that multiplies

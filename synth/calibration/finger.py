@@ -53,3 +53,68 @@ def mount_figures(config: SynthConfig) -> dict:
         "pitch_nm_rad": f.pdms_pitch_stiffness_nm_rad,
         "modes_hz": f.mount_modes_hz(skin_stiffness_n_m(config, NOMINAL_FORCE_N)),
     }
+
+
+def fingerprint_gains(config: SynthConfig, force_n: float = 1.0, draws: int = 200) -> dict:
+    """How much of each material's periodic marks the fingerprint passes on to the pad
+    under ``force_n`` (the marks running along the ridges):
+
+    - ``comb``: the ridges inside the skin's Hertz contact, each weighted by its chord,
+      add the mark's phases at their places, ``|sum w exp(i k x)| / sum w``;
+    - ``box``: each ridge averages the surface over its contact width ``w`` with equal
+      weight, as the model does, ``sinc(w / lambda)``;
+    - ``rounded``: what a ridge pressing with a rounded (Hertzian line-contact,
+      elliptical) pressure profile across its width would pass, ``2 J1(x) / x`` with
+      ``x = pi w / lambda``; the model does not use it;
+    - ``comb_median`` / ``comb_p90`` / ``percentile``: the comb gain of ``draws`` other
+      draws of the same irregularity, and where the finger's own draw ranks among them.
+
+    Returns ``{"ridges", "contact_radius_m", "marks": [{"material", "wavelength_m",
+    "comb", "box", "rounded", "comb_median", "comb_p90", "percentile"}, ...]}``.
+    """
+    from scipy.special import j1
+
+    from ..texture import (
+        FINGERPRINT_SEED,
+        chord_weighted,
+        contact_radius_m,
+        ridge_draw,
+        ridge_offsets,
+        touching_ridges,
+    )
+
+    f = config.finger
+    radius = float(contact_radius_m(f, force_n))
+    own_offsets, own_weights = touching_ridges(f, radius)
+    n = ridge_offsets(f).size
+    others = []
+    for seed in range(FINGERPRINT_SEED + 1, FINGERPRINT_SEED + 1 + draws):
+        offsets = ridge_draw(n, f.ridge_spacing_m, f.ridge_jitter, seed)
+        if f.ridges_in_contact is None:
+            others.append(chord_weighted(offsets, radius))
+        else:
+            others.append((offsets, np.ones(offsets.size)))
+
+    def comb(offsets: np.ndarray, weights: np.ndarray, k: float) -> float:
+        return float(abs(np.sum(weights * np.exp(1j * k * offsets))) / weights.sum())
+
+    marks = []
+    for name, material in config.materials.items():
+        for mark in material.texture.periodic:
+            k = 2.0 * np.pi / mark.wavelength_m
+            x = np.pi * f.ridge_width_m / mark.wavelength_m
+            own = comb(own_offsets, own_weights, k)
+            spread = np.array([comb(o, w, k) for o, w in others])
+            marks.append(
+                {
+                    "material": name,
+                    "wavelength_m": mark.wavelength_m,
+                    "comb": own,
+                    "box": float(np.sinc(f.ridge_width_m / mark.wavelength_m)),
+                    "rounded": float(2.0 * j1(x) / x),
+                    "comb_median": float(np.median(spread)),
+                    "comb_p90": float(np.percentile(spread, 90)),
+                    "percentile": float(100.0 * np.mean(spread < own)),
+                }
+            )
+    return {"ridges": int(own_offsets.size), "contact_radius_m": radius, "marks": marks}
