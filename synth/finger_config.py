@@ -74,6 +74,8 @@ class Finger:
     #: Fitted by ``scripts/calibrate.py skin`` so that the simulated indentation follows
     #: Hertz's law of a sphere of ``pad_radius_m`` and ``skin_modulus_pa`` on a rigid flat
     #: over 0.3-2 N (``synth.contact.hertz_indentation_m``), within 3.1 % at every load.
+    #: A finger with another pad radius or skin needs them refitted:
+    #: ``synth.skin_fit.with_fitted_skin`` does it, as ``--set`` and experiment files do.
     skin_solref: tuple[float, ...] = (0.001, 1.0)
     skin_solimp: tuple[float, ...] = (0.351913, 0.95, 0.005386, 0.5, 1.0)
     #: Fingerprint ridge spacing. The paper's finger carries a fingerprint its description
