@@ -41,7 +41,7 @@ from tactile_synth.validation import parse_number
 
 from ..config import SynthConfig
 from ..materials import Material, Periodic
-from ..skin_fit import HERTZ_FIELDS
+from ..skin_fit import HERTZ_FIELDS, SimulationError, with_fitted_skin
 
 
 class CalibrationError(ValueError):
@@ -487,9 +487,6 @@ def _with_gauge_height(config: SynthConfig, gauge: int, value: float) -> SynthCo
 def _with_refitted_skin(config: SynthConfig, field: str, value: float) -> SynthConfig:
     """``config`` with the finger's ``field`` at ``value`` and the skin's MuJoCo contact
     fitted to the resulting Hertz law; the fit's failure is a one-line refusal."""
-    from ..simulator import SimulationError
-    from ..skin_fit import with_fitted_skin
-
     if getattr(config.finger, field) == value:  # the skin as it is: its fit stands
         return config
     changed = dataclasses.replace(
