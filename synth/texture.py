@@ -150,24 +150,20 @@ def ridge_offsets(finger: Finger) -> np.ndarray:
     return _ridge_offsets(n, finger.ridge_spacing_m, finger.ridge_jitter).copy()
 
 
-def touching_ridges(finger: Finger, contact_radius_m: float) -> tuple[np.ndarray, np.ndarray]:
+def touching_ridges(
+    finger: Finger, contact_radius_m: float, offsets: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """``(offsets, weights)`` of the ridges that touch the surface in a contact of radius
     ``contact_radius_m``; the pad follows ``sum(weights * height) / sum(weights)``.
 
     With ``Finger.ridges_in_contact`` null, the ridges inside the contact circle, each
     weighted by its chord (the nearest ridge alone, weight 1, if the circle holds none);
-    else the fixed number of ridges, weighted equally.
+    else the fixed number of ridges, weighted equally. ``offsets``: the ridges' positions
+    (default the finger's own, :func:`ridge_offsets`; another draw, :func:`ridge_draw`).
     """
-    offsets = ridge_offsets(finger)
+    offsets = ridge_offsets(finger) if offsets is None else offsets
     if finger.ridges_in_contact is not None:
         return offsets, np.ones(offsets.size)
-    return chord_weighted(offsets, contact_radius_m)
-
-
-def chord_weighted(offsets: np.ndarray, contact_radius_m: float) -> tuple[np.ndarray, np.ndarray]:
-    """``(offsets, weights)`` of the ridges at ``offsets`` inside a contact circle of radius
-    ``contact_radius_m``, each weighted by its chord (the nearest ridge alone, weight 1, if
-    the circle holds none)."""
     inside = np.abs(offsets) < contact_radius_m
     if not inside.any():
         return offsets[[np.argmin(np.abs(offsets))]], np.ones(1)

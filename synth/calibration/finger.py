@@ -76,7 +76,6 @@ def fingerprint_gains(config: SynthConfig, force_n: float = 1.0, draws: int = 20
 
     from ..texture import (
         FINGERPRINT_SEED,
-        chord_weighted,
         contact_radius_m,
         ridge_draw,
         ridge_offsets,
@@ -87,13 +86,10 @@ def fingerprint_gains(config: SynthConfig, force_n: float = 1.0, draws: int = 20
     radius = float(contact_radius_m(f, force_n))
     own_offsets, own_weights = touching_ridges(f, radius)
     n = ridge_offsets(f).size
-    others = []
-    for seed in range(FINGERPRINT_SEED + 1, FINGERPRINT_SEED + 1 + draws):
-        offsets = ridge_draw(n, f.ridge_spacing_m, f.ridge_jitter, seed)
-        if f.ridges_in_contact is None:
-            others.append(chord_weighted(offsets, radius))
-        else:
-            others.append((offsets, np.ones(offsets.size)))
+    others = [
+        touching_ridges(f, radius, ridge_draw(n, f.ridge_spacing_m, f.ridge_jitter, seed))
+        for seed in range(FINGERPRINT_SEED + 1, FINGERPRINT_SEED + 1 + draws)
+    ]
 
     def comb(offsets: np.ndarray, weights: np.ndarray, k: float) -> float:
         return float(abs(np.sum(weights * np.exp(1j * k * offsets))) / weights.sum())

@@ -11,9 +11,10 @@ to ask what a friction level of its own per material would change;
 ``.mark_amplitude_m`` set one material's surface, whose measured ranges and free choices
 the sweep spans; ``materials.stribeck_velocity_m_s`` sets every material's Stribeck
 velocity, and ``finger.gauge_heights_m.0`` / ``.1`` one strain gauge's height. Setting
-the pad's radius or the skin's modulus or Poisson's ratio (:data:`SKIN_FIT_FIELDS`) refits
-the skin's MuJoCo contact to the new skin's Hertz law (:func:`synth.skin_fit.fit_skin_contact`),
-so that the simulated indentation follows it as the default skin's does.
+the pad's radius or the skin's modulus or Poisson's ratio
+(:data:`synth.skin_fit.HERTZ_FIELDS`) refits the skin's MuJoCo contact to the new skin's
+Hertz law (:func:`synth.skin_fit.fit_skin_contact`), so that the simulated indentation
+follows it as the default skin's does.
 
 Examples
 --------
@@ -71,9 +72,6 @@ STRIBECK = ("materials", "stribeck_velocity_m_s")
 #: ``finger.<this>.I``: the height of gauge I (0 the front face's, 1 the side face's) of
 #: the tuple ``Finger.gauge_heights_m``, one number each.
 GAUGE_HEIGHTS = "gauge_heights_m"
-#: ``finger.<one of these>``: the fields the skin's Hertz law depends on; setting one
-#: refits ``Finger.skin_solref`` / ``skin_solimp`` to the new law (a few seconds).
-SKIN_FIT_FIELDS = HERTZ_FIELDS
 #: Configuration sections whose numeric fields ``--set`` may change.
 SECTIONS = ("finger", "motion", "variability", "strain_gauge", "pvdf", "acquisition")
 
@@ -422,8 +420,8 @@ def special_setting(config: SynthConfig, section: str, field: str) -> Setting | 
     ``materials.MATERIAL.FIELD`` with FIELD one of :data:`TEXTURE_FIELDS` (that
     material's surface); ``materials.stribeck_velocity_m_s`` (every material's Stribeck
     velocity, read as the largest); ``finger.gauge_heights_m.I`` (gauge I's height);
-    ``finger.FIELD`` with FIELD one of :data:`SKIN_FIT_FIELDS` (the skin's contact refitted
-    to its new Hertz law)."""
+    ``finger.FIELD`` with FIELD one of :data:`synth.skin_fit.HERTZ_FIELDS` (the skin's
+    contact refitted to its new Hertz law)."""
     own = material_field(config, section, field)
     if own is not None:
         name, attr = own
@@ -448,7 +446,7 @@ def special_setting(config: SynthConfig, section: str, field: str) -> Setting | 
             lambda c: c.finger.gauge_heights_m[gauge],
             lambda c, value: _with_gauge_height(c, gauge, value),
         )
-    if section == "finger" and field in SKIN_FIT_FIELDS:
+    if section == "finger" and field in HERTZ_FIELDS:
         return Setting(
             lambda c: getattr(c.finger, field),
             lambda c, value: _with_refitted_skin(c, field, value),
