@@ -41,9 +41,10 @@ source gives; nothing is tuned per shape, material or class.
     python3 scripts/calibrate.py fingerprint [--force-n 1] [--draws 200] [--set ...]
         Not a calibration: how much of each material's periodic marks the fingerprint
         passes on under the load (:func:`synth.calibration.finger.fingerprint_gains`):
-        the ridges in the contact adding the mark's phases, each ridge's sharp-edged
-        average over its width as the model takes it, beside a rounded ridge's, and how
-        the finger's one draw of its ridges' irregularity ranks among other draws.
+        the ridges in the contact adding the mark's phases, the central ridge's average
+        over its width with a sharp-edged and with a rounded pressure profile, what the
+        whole fingerprint passes as the model takes it, and how the finger's one draw of
+        its ridges' irregularity ranks among other draws.
     python3 scripts/calibrate.py sweep [--trials-per-class 20] [--seeds 1]
                                        [--only SECTION.FIELD] [--base SECTION.FIELD=VALUE]
                                        [--set SECTION.FIELD=VALUE] [--out DIR [--resume]]
@@ -223,20 +224,20 @@ def cmd_fingerprint(args: argparse.Namespace) -> int:
         f"{f.ridge_spacing_m * 1e3:g} mm apart +-{100 * f.ridge_jitter:g} %"
     )
     print(
-        f"{'material':<10} {'mark (um)':>9} {'comb':>6} {'box':>7} {'felt':>6} "
-        f"{'rounded':>8} {'felt':>6}   comb over {args.draws} other draws"
+        f"{'material':<10} {'mark (um)':>9} {'comb':>6} {'box':>7} {'rounded':>8} "
+        f"{'felt':>6}   comb over {args.draws} other draws"
     )
     for m in got["marks"]:
         print(
             f"{m['material']:<10} {m['wavelength_m'] * 1e6:>9.0f} {m['comb']:>6.3f} "
-            f"{m['box']:>+7.3f} {abs(m['comb'] * m['box']):>6.3f} {m['rounded']:>+8.3f} "
-            f"{abs(m['comb'] * m['rounded']):>6.3f}   median {m['comb_median']:.3f}, 90th "
-            f"percentile {m['comb_p90']:.3f}; this draw above {m['percentile']:.0f} %"
+            f"{m['box']:>+7.3f} {m['rounded']:>+8.3f} {m['felt']:>6.3f}   median "
+            f"{m['comb_median']:.3f}, 90th percentile {m['comb_p90']:.3f}; this draw above "
+            f"{m['percentile']:.0f} %"
         )
     print(
-        "comb: the ridges' chord-weighted sum of the mark's phases; box: each ridge's "
-        "even average over its width (the model's); rounded: a ridge pressing with an "
-        "elliptical profile (not the model's); felt: comb x width gain"
+        "comb: the ridges' chord-weighted sum of the mark's phases; box / rounded: the "
+        "central ridge's even / elliptical average over its width; felt: what the "
+        "fingerprint passes, every ridge through its own width and profile (the model's)"
     )
     return 0
 

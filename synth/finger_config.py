@@ -82,10 +82,23 @@ class Finger:
     #: does not dimension; human ridges lie about 0.5 mm apart (Maltoni et al. 2009,
     #: below). A free choice, plausible 0.3-0.6 mm, which the sweep measures.
     ridge_spacing_m: float = 0.45e-3
-    #: Width of one ridge's contact with the surface (averages finer texture). Fingerprint
-    #: ridges are 100-300 um wide, about 500 um apart (Maltoni et al. 2009, Handbook of
-    #: Fingerprint Recognition, ch. 3); a ridge pressed flat touches across its width.
+    #: Width of the central ridge's contact with the surface (averages finer texture).
+    #: Fingerprint ridges are 100-300 um wide, about 500 um apart (Maltoni et al. 2009,
+    #: Handbook of Fingerprint Recognition, ch. 3).
     ridge_width_m: float = 0.15e-3
+    #: Shape of the pressure across one ridge's contact width ``w``: ``(1 - (2 x / w)^2)``
+    #: to this power. 0.5: a rounded ridge pressed on a flat is a Hertzian line contact,
+    #: whose pressure is elliptical (Johnson 1985, Contact Mechanics, sec. 4.2); 0: a
+    #: flat pressure, each ridge averaging the surface over a sharp-edged box of its width.
+    ridge_profile_exponent: float = 0.5
+    #: How each ridge's contact width follows the pad's pressure where it lies: as that
+    #: pressure to this power, relative to the central ridge's ``ridge_width_m``. 0.5: a
+    #: Hertzian line contact's width grows as the square root of its load per length
+    #: (Johnson 1985, sec. 4.2), and the pad's Hertz pressure falls from the contact's
+    #: centre to its rim as ``sqrt(1 - (r / a)^2)``, so the ridges narrow towards the
+    #: rim; 0: every ridge ``ridge_width_m`` wide. The central ridge's width does not
+    #: follow the load (it would as the load's sixth root).
+    ridge_width_pressure_exponent: float = 0.5
     #: The ridges that touch the surface. ``None``: the fingerprint covers the pad
     #: (``2 pad_radius_m / ridge_spacing_m + 1`` ridges) and every ridge inside the
     #: skin's Hertz contact under the simulated load touches: 10 at 1 N (a 4.8 mm wide
@@ -126,7 +139,13 @@ class Finger:
             "ridge_spacing_m",
             "ridge_width_m",
         )
-        params.non_negative(self, "ridge_jitter", "skin_poisson")
+        params.non_negative(
+            self,
+            "ridge_jitter",
+            "skin_poisson",
+            "ridge_profile_exponent",
+            "ridge_width_pressure_exponent",
+        )
         params.below(self, "skin_poisson", 0.5, "an elastic solid")
         params.below(self, "ridge_jitter", 0.5, "ridges must not swap order")
         n = self.ridges_in_contact

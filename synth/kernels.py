@@ -168,12 +168,16 @@ def _add_scaled(acc, w, x):
 
 
 @numba.njit(cache=True, nogil=True)
-def felt_layers(profiles, whole, frac, rough_weights, mark_weights, totals, dx, heights, slopes):
+def felt_layers(
+    profiles, bank_of, whole, frac, rough_weights, mark_weights, totals, dx, heights, slopes
+):
     """A loaded surface's layers (:func:`synth.texture.loaded_surface`) in one call,
     without a shifted copy of every profile per ridge.
 
-    ``profiles`` ``(1 + k, n)``: the roughness and the ``k`` periodic marks on the grid.
-    Ridge ``r`` reads each profile ``whole[r] + frac[r]`` cells further on, by linear
+    ``profiles`` ``(banks, 1 + k, n)``: the roughness and the ``k`` periodic marks on the
+    grid, each bank as one ridge width's average leaves them; ridge ``r`` in layer ``j``
+    reads bank ``bank_of[j, r]`` (-1: the ridge is outside that layer's contact). Ridge
+    ``r`` reads each profile ``whole[r] + frac[r]`` cells further on, by linear
     interpolation (``p[i] * (1 - frac) + p[i + 1] * frac``, the end values beyond the
     ends). Layer ``j``'s height is ``(sum over r of rough_weights[j, r] * roughness_r +
     sum over r, m of mark_weights[j, r * k + m] * mark_rm) / totals[j]``, each sum taken
@@ -181,11 +185,13 @@ def felt_layers(profiles, whole, frac, rough_weights, mark_weights, totals, dx, 
     ``np.gradient(height, dx)``: the bits of the ridge-by-ridge numpy form (shifted
     copies, :func:`weighted_rows`, ``np.gradient``), which ``tests/test_kernels.py``
     keeps as the reference."""
-    n = profiles.shape[1]
-    k = profiles.shape[0] - 1
+    banks = profiles.shape[0]
+    n = profiles.shape[2]
+    k = profiles.shape[1] - 1
     layers, ridges = rough_weights.shape
     # Row by row, so that the inner loops run over the grid (vectorised): a ridge's
-    # shifted profile, then its weighted term added into every layer's sum.
+    # shifted profile, then its weighted term added into every layer's sum that reads
+    # that bank (each layer reads one bank per ridge, so its sums keep the ridges' order).
     acc_rough = np.zeros((layers, n))
     acc_marks = np.zeros((layers, n))
     shifted = np.empty(n)
@@ -195,25 +201,34 @@ def felt_layers(profiles, whole, frac, rough_weights, mark_weights, totals, dx, 
         g = 1.0 - f
         first = min(max(-d, 0), n)  # grid points whose two neighbours lie inside
         stop = max(min(n - 1 - d, n), first)
-        for p in range(1 + k):
-            row = profiles[p]
-            for i in range(first):
-                lo = min(max(i + d, 0), n - 1)
-                hi = min(max(i + d + 1, 0), n - 1)
-                shifted[i] = row[lo] * g + row[hi] * f
-            _interpolate(row[first + d : stop + d + 1], g, f, shifted[first:stop])
-            for i in range(stop, n):
-                lo = min(max(i + d, 0), n - 1)
-                hi = min(max(i + d + 1, 0), n - 1)
-                shifted[i] = row[lo] * g + row[hi] * f
-            sums = acc_rough if p == 0 else acc_marks
+        for b in range(banks):
+            used = False
             for j in range(layers):
-                w = rough_weights[j, r] if p == 0 else mark_weights[j, r * k + p - 1]
-                if w == 0.0:
-                    # Adds zeros: a sum started at +0.0 keeps its bits (a ridge outside
-                    # this layer's contact).
-                    continue
-                _add_scaled(sums[j], w, shifted)
+                if bank_of[j, r] == b:
+                    used = True
+            if not used:
+                continue
+            for p in range(1 + k):
+                row = profiles[b, p]
+                for i in range(first):
+                    lo = min(max(i + d, 0), n - 1)
+                    hi = min(max(i + d + 1, 0), n - 1)
+                    shifted[i] = row[lo] * g + row[hi] * f
+                _interpolate(row[first + d : stop + d + 1], g, f, shifted[first:stop])
+                for i in range(stop, n):
+                    lo = min(max(i + d, 0), n - 1)
+                    hi = min(max(i + d + 1, 0), n - 1)
+                    shifted[i] = row[lo] * g + row[hi] * f
+                sums = acc_rough if p == 0 else acc_marks
+                for j in range(layers):
+                    if bank_of[j, r] != b:
+                        continue
+                    w = rough_weights[j, r] if p == 0 else mark_weights[j, r * k + p - 1]
+                    if w == 0.0:
+                        # Adds zeros: a sum started at +0.0 keeps its bits (a ridge
+                        # outside this layer's contact).
+                        continue
+                    _add_scaled(sums[j], w, shifted)
     for j in range(layers):
         total = totals[j]
         for i in range(n):
@@ -228,14 +243,14 @@ def felt_layers(profiles, whole, frac, rough_weights, mark_weights, totals, dx, 
 
 
 @numba.njit(cache=True, nogil=True)
-def box_mean(x, width, out):
-    """The moving mean of ``x`` over ``width`` samples, aligned and zero-padded as
-    ``np.convolve(x, np.ones(width) / width, mode="same")``; each output sums its terms in
-    one order on every CPU (numpy's convolution sums through the BLAS). ``out`` may be
-    ``x`` itself: the sums read a padded copy."""
+def taps_mean(x, taps, out):
+    """The moving weighted mean of ``x`` with ``taps`` (summing to 1), aligned and
+    zero-padded as ``np.convolve(x, taps[::-1], mode="same")``; each output sums its
+    terms in one order on every CPU (numpy's convolution sums through the BLAS). ``out``
+    may be ``x`` itself: the sums read a padded copy."""
     n = x.size
+    width = taps.size
     half = (width - 1) // 2
-    tap = 1.0 / width
     # Zero-padded, so that every output adds its window's samples from the first to the
     # last, tap by tap across all outputs (a loop the compiler vectorises); the padding's
     # zeros leave the sums' bits as they are.
@@ -244,8 +259,16 @@ def box_mean(x, width, out):
     padded[lead : lead + n] = x
     out[:] = 0.0
     for d in range(width):
+        tap = taps[d]
         for i in range(n):
             out[i] += padded[d + i] * tap
+
+
+def box_mean(x, width, out):
+    """The moving mean of ``x`` over ``width`` samples, aligned and zero-padded as
+    ``np.convolve(x, np.ones(width) / width, mode="same")``: :func:`taps_mean` with
+    ``width`` equal taps."""
+    taps_mean(x, np.full(width, 1.0 / width), out)
 
 
 @numba.njit(cache=True, nogil=True)

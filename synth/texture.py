@@ -13,12 +13,15 @@ sticks feels a constant height; a pad that slows down feels the texture slow dow
 The skin touches the surface only with its fingerprint ridges (parallel springs), so the
 pad follows the *mean* height under the ridges inside the skin's contact circle, each
 weighted by its chord of the circle (a longer line contact is a stiffer spring) and
-each averaging over its own contact width; a larger load widens the contact and brings
-more ridges in. The contact is the simulated load's: a trial's surface is tabulated
-under a few loads around the set force (:func:`loaded_surface`) and read under the load
-the contact carries (:class:`LayeredTable`). That comb-and-box filter is the
-fingerprint's role in the contact model: it passes wavelengths near the ridge spacing
-and averages finer ones out. Across the path each ridge touches the surface along a
+each averaging across its own contact width with the pressure a rounded ridge pressed
+on a flat carries there (elliptical, a Hertzian line contact: :func:`ridge_taps`); the
+ridges narrow towards the contact's rim, where the pad presses them less
+(:func:`ridge_widths_m`). A larger load widens the contact and brings more ridges in.
+The contact is the simulated load's: a trial's surface is tabulated under a few loads
+around the set force (:func:`loaded_surface`) and read under the load the contact
+carries (:class:`LayeredTable`). That comb of rounded ridges is the fingerprint's role
+in the contact model: it passes wavelengths near the ridge spacing and averages finer
+ones down. Across the path each ridge touches the surface along a
 chord of the contact circle and feels the mean height along it: random roughness is
 averaged down, and periodic marks are felt in full only when they run parallel to the
 ridges; a specimen turned in its fixture turns its marks against the ridges and they
@@ -226,13 +229,18 @@ def felt_surface(
     chords = 2.0 * np.sqrt(np.maximum(contact_radius_m**2 - offsets**2, 0.0))
     rough, marks = _profile_parts(texture, length, rng, float(chords.mean()))
     gains = mark_gains(chords, np.array([c.wavelength_m for c in texture.periodic]), mark_angle_rad)
-    rough = _over_ridge_width(finger, rough, marks)
+    widths = (
+        ridge_widths_m(finger, offsets, contact_radius_m)
+        if chords.any()
+        else np.full(offsets.size, finger.ridge_width_m)
+    )
+    bank, bank_of = _ridge_bank(finger, widths, rough, marks)
     grid = np.arange(rough.size) * GRID_M
     shifted = np.empty((offsets.size, rough.size))
     marked = np.empty(rough.size)
-    for row, o, gain in zip(shifted, offsets, gains, strict=True):
-        kernels.weighted_rows(gain, marks, marked)
-        row[:] = np.interp(grid + o, grid, rough + marked)
+    for row, o, gain, b in zip(shifted, offsets, gains, bank_of, strict=True):
+        kernels.weighted_rows(gain, bank[b, 1:], marked)
+        row[:] = np.interp(grid + o, grid, bank[b, 0] + marked)
     if finger.ridges_in_contact is None:
         felt = np.empty(rough.size)
         kernels.weighted_rows(weights, shifted, felt)
@@ -245,17 +253,78 @@ def felt_surface(
     return FeltSurface(origin_m=start_m - margin, height_m=felt, slope=slope)
 
 
-def _over_ridge_width(finger: Finger, rough: np.ndarray, marks: np.ndarray) -> np.ndarray:
-    """Each ridge averages over its contact width: a moving box filter on the grid. Returns
-    the filtered roughness; filters the marks ``(k, n)`` in place."""
-    width = max(1, round(finger.ridge_width_m / GRID_M))
-    if width == 1:
-        return rough
-    for row in marks:
-        kernels.box_mean(row, width, row)
-    out = np.empty(rough.size)
-    kernels.box_mean(rough, width, out)
+def ridge_widths_m(finger: Finger, offsets: np.ndarray, contact_radius_m: float) -> np.ndarray:
+    """Each ridge's contact width (m) at ``offsets`` in a contact of radius
+    ``contact_radius_m``: ``ridge_width_m`` at the centre, narrowing towards the rim as
+    the pad's Hertz pressure there, ``sqrt(1 - (r / a)^2)``, to the power
+    ``Finger.ridge_width_pressure_exponent`` (0 outside the contact); every ridge
+    ``ridge_width_m`` wide in a point contact (radius 0) or with the exponent 0."""
+    offsets = np.asarray(offsets, dtype=float)
+    exponent = finger.ridge_width_pressure_exponent
+    if contact_radius_m <= 0 or exponent == 0:
+        return np.full(offsets.shape, finger.ridge_width_m)
+    rel = offsets / contact_radius_m
+    pressure = np.sqrt(np.maximum(1.0 - rel * rel, 0.0))
+    return finger.ridge_width_m * kernels.power(pressure, exponent)
+
+
+def ridge_taps(finger: Finger, width_m: float) -> np.ndarray:
+    """The weights (summing to 1) with which a ridge of contact width ``width_m`` averages
+    the surface on the ``GRID_M`` grid: the pressure across its width,
+    ``(1 - (2 x / w)^2) ** Finger.ridge_profile_exponent``, sampled on the grid
+    (exponent 0: ``round(w / GRID_M)`` equal weights, a box); one weight for a ridge
+    narrower than two cells."""
+    exponent = finger.ridge_profile_exponent
+    if exponent == 0:
+        cells = max(1, round(width_m / GRID_M))
+        return np.full(cells, 1.0 / cells)
+    half = round(width_m / (2 * GRID_M))
+    if half <= 1:
+        return np.ones(1)
+    t = np.arange(-(half - 1), half, dtype=float) / half
+    taps = kernels.power(1.0 - t * t, exponent)
+    return taps / math.fsum(taps.tolist())
+
+
+def ridge_gains(finger: Finger, widths_m: np.ndarray, wavelength_m: float) -> np.ndarray:
+    """How much of a mark of ``wavelength_m`` each ridge of contact width ``widths_m``
+    passes through its average across its width (:func:`ridge_taps`): the taps' transfer
+    at that wavelength, ``sum taps * cos(2 pi x / lambda)``."""
+    out = np.empty(np.size(widths_m))
+    for i, w in enumerate(np.ravel(widths_m).tolist()):
+        taps = ridge_taps(finger, w)
+        x = (np.arange(taps.size) - (taps.size - 1) / 2) * GRID_M
+        out[i] = float(np.sum(taps * np.cos(2 * math.pi * x / wavelength_m)))
     return out
+
+
+def _ridge_bank(
+    finger: Finger, widths_m: np.ndarray, rough: np.ndarray, marks: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(bank, bank_of)``: the roughness and marks ``(1 + k, n)`` as each distinct ridge
+    width averages them (:func:`ridge_taps`), ``(banks, 1 + k, n)``, and the bank each
+    entry of ``widths_m`` reads (-1 for a negative width: a ridge not in contact)."""
+    widths = np.asarray(widths_m, dtype=float)
+    bank_of = np.full(widths.shape, -1, dtype=np.intp)
+    taps_of: dict[int, np.ndarray] = {}
+    keys = np.full(widths.shape, -1, dtype=np.intp)
+    for idx, w in np.ndenumerate(widths):
+        if w < 0:
+            continue
+        taps = ridge_taps(finger, float(w))
+        taps_of.setdefault(taps.size, taps)
+        keys[idx] = taps.size
+    order = sorted(taps_of, reverse=True)
+    stack = np.vstack([rough, marks])
+    bank = np.empty((len(order), *stack.shape))
+    for b, size in enumerate(order):
+        bank_of[keys == size] = b
+        for row, out in zip(stack, bank[b], strict=True):
+            if size == 1:
+                out[:] = row
+            else:
+                kernels.taps_mean(row, taps_of[size], out)
+    return bank, bank_of
 
 
 @dataclass(frozen=True)
@@ -370,7 +439,6 @@ def loaded_surface(
     length = stop_m - start_m + 2 * margin
     # The roughness at unit averaging; each layer scales it for its own mean chord.
     rough, marks = _profile_parts(texture, length, rng, 0.0)
-    rough = _over_ridge_width(finger, rough, marks)
     n = rough.size
     # What each ridge is under: every profile read offset / GRID_M cells further on.
     cells = np.array([o / GRID_M for o in offsets.tolist()])
@@ -381,16 +449,20 @@ def loaded_surface(
     rough_weights = np.empty((radii.size, offsets.size))
     mark_weights = np.empty((radii.size, offsets.size * wavelengths.size))
     totals = np.empty(radii.size)
+    # Each ridge's contact width in each layer (-1: not in that layer's contact).
+    widths = np.full((radii.size, offsets.size), -1.0)
     for layer, a in enumerate(radii):
         chords = 2.0 * np.sqrt(np.maximum(a * a - offsets**2, 0.0))
         inside = chords > 0
         if inside.any():
             weights = chords
             mean_chord = float(chords[inside].mean())
+            widths[layer, inside] = ridge_widths_m(finger, offsets[inside], float(a))
         else:
             weights = np.zeros(offsets.size)
             weights[np.argmin(np.abs(offsets))] = 1.0
             mean_chord = 0.0
+            widths[layer, np.argmin(np.abs(offsets))] = finger.ridge_width_m
         scale = 0.0
         if texture.roughness_rms_m > 0:
             scale = math.sqrt(line_average_variance(texture.correlation_length_m, mean_chord))
@@ -399,10 +471,12 @@ def loaded_surface(
             mark_gains(chords, wavelengths, mark_angle_rad) * weights[:, None]
         ).ravel()
         totals[layer] = weights.sum()
+    bank, bank_of = _ridge_bank(finger, widths, rough, marks)
     heights = np.empty((radii.size, n))
     slopes = np.empty((radii.size, n))
     kernels.felt_layers(
-        np.vstack([rough, marks]),
+        bank,
+        bank_of,
         whole,
         frac,
         rough_weights,

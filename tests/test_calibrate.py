@@ -523,10 +523,19 @@ def test_fingerprint_gains_follow_the_ridges_places_and_widths(capsys):
     assert feed["box"] == pytest.approx(np.sinc(1.5))  # 0.15 mm ridges on a 0.1 mm mark
     assert abs(feed["rounded"]) < abs(feed["box"])
     assert 0 < feed["comb"] < 1 and 0 <= feed["percentile"] <= 100
-    regular = dataclasses.replace(base.finger, ridge_jitter=0.0, ridge_width_m=0.1e-3)
+    assert 0 < feed["felt"] < feed["comb"]  # each ridge averages part of the mark away
+    # Equal box ridges: the fingerprint passes the comb times the box's gain (sampled on
+    # the grid: within 1 % of the continuous box's).
+    box = dataclasses.replace(
+        base.finger, ridge_profile_exponent=0.0, ridge_width_pressure_exponent=0.0
+    )
+    got = fingerprint_gains(dataclasses.replace(base, finger=box), 1.0, draws=5)
+    feed = next(m for m in got["marks"] if m["material"] == "aluminum")
+    assert feed["felt"] == pytest.approx(feed["comb"] * abs(feed["box"]), rel=0.01)
+    regular = dataclasses.replace(box, ridge_jitter=0.0, ridge_width_m=0.1e-3)
     got = fingerprint_gains(dataclasses.replace(base, finger=regular), 1.0, draws=5)
     feed = next(m for m in got["marks"] if m["material"] == "aluminum")
-    assert feed["comb"] < 1e-6 and abs(feed["box"]) < 1e-12
+    assert feed["comb"] < 1e-6 and abs(feed["box"]) < 1e-12 and feed["felt"] < 1e-6
     assert feed["comb_median"] == pytest.approx(feed["comb"], abs=1e-9)  # every draw alike
     long = dataclasses.replace(base.materials["wood"].texture.periodic[0], wavelength_m=1.0)
     wood = dataclasses.replace(

@@ -360,27 +360,35 @@ def test_the_power_ufunc_gives_the_c_librarys_bits():
     assert np.array_equal(kernels.power(1.3, y), np.array([math.pow(1.3, b) for b in y]))
 
 
-def _felt_layers_numpy(profiles, cells, rough_weights, mark_weights, totals, dx):
+def _felt_layers_numpy(profiles, bank_of, cells, rough_weights, mark_weights, totals, dx):
     """The ridge-by-ridge numpy form of ``kernels.felt_layers``: each ridge's shifted copy
-    of every profile (edge-padded, read by slicing), the layers' sums as
-    ``weighted_rows``, the slope by ``np.gradient``."""
-    k, n = profiles.shape[0] - 1, profiles.shape[1]
+    of every bank's profiles (edge-padded, read by slicing), the layers' sums as
+    ``weighted_rows`` over the bank each ridge reads in that layer, the slope by
+    ``np.gradient``."""
+    k, n = profiles.shape[1] - 1, profiles.shape[2]
     pad = int(max(abs(c) for c in cells)) + 2
-    padded = np.pad(profiles, ((0, 0), (pad, pad)), mode="edge")
-    shifted = np.empty((len(cells), 1 + k, n))
+    padded = np.pad(profiles, ((0, 0), (0, 0), (pad, pad)), mode="edge")
+    shifted = np.empty((len(cells), profiles.shape[0], 1 + k, n))
     for c, out in zip(cells, shifted, strict=True):
         whole = math.floor(c)
         frac = c - whole
-        lo = padded[:, pad + whole : pad + whole + n]
-        hi = padded[:, pad + whole + 1 : pad + whole + 1 + n]
+        lo = padded[:, :, pad + whole : pad + whole + n]
+        hi = padded[:, :, pad + whole + 1 : pad + whole + 1 + n]
         out[:] = np.multiply(lo, 1.0 - frac) + np.multiply(hi, frac)
     heights = np.empty((len(totals), n))
     for j, layer in enumerate(heights):
+        # A ridge outside the layer reads bank 0 with weight 0: adding zeros to a sum
+        # started at +0.0 keeps its bits.
+        read = np.stack(
+            [shifted[r, max(b, 0)] for r, b in enumerate(bank_of[j])]
+        )  # (ridges, 1 + k, n)
+        rough_w = np.where(bank_of[j] < 0, 0.0, rough_weights[j])
         felt, marked = np.empty(n), np.empty(n)
-        kernels.weighted_rows(rough_weights[j], np.ascontiguousarray(shifted[:, 0]), felt)
+        kernels.weighted_rows(rough_w, np.ascontiguousarray(read[:, 0]), felt)
         if k:
-            flat = np.ascontiguousarray(shifted[:, 1:]).reshape(-1, n)
-            kernels.weighted_rows(mark_weights[j], flat, marked)
+            mark_w = np.where(np.repeat(bank_of[j], k) < 0, 0.0, mark_weights[j])
+            flat = np.ascontiguousarray(read[:, 1:]).reshape(-1, n)
+            kernels.weighted_rows(mark_w, flat, marked)
             felt += marked
         layer[:] = felt / totals[j]
     return heights, np.gradient(heights, dx, axis=1)
@@ -388,14 +396,19 @@ def _felt_layers_numpy(profiles, cells, rough_weights, mark_weights, totals, dx)
 
 def test_the_felt_layers_kernel_gives_the_ridge_by_ridge_bits():
     """``felt_layers`` reads every ridge's shift inside its loop over the grid and gives
-    the bits of the shifted copies summed row by row: with and without marks, ridges
+    the bits of the shifted copies summed row by row: with and without marks, one bank or
+    several (a ridge reading another width's bank in another layer, or none), ridges
     shifted either way and past the profiles' ends, zero weights (skipped: adding zeros
     to a sum started at +0.0 keeps its bits)."""
     rng = np.random.default_rng(8)
-    for k, ridges, layers, n in ((2, 9, 5, 700), (0, 4, 3, 50), (1, 1, 1, 12), (3, 12, 5, 301)):
-        profiles = rng.normal(0.0, 1e-6, (1 + k, n))
+    cases = ((2, 9, 5, 700, 1), (0, 4, 3, 50, 2), (1, 1, 1, 12, 1), (3, 12, 5, 301, 4))
+    for k, ridges, layers, n, banks in cases:
+        profiles = rng.normal(0.0, 1e-6, (banks, 1 + k, n))
         cells = list(rng.uniform(-25.0, 25.0, ridges)) + [0.0, -3.0][: max(0, 2 - ridges)]
         ridges = len(cells)
+        bank_of = rng.integers(0, banks, (layers, ridges))
+        if ridges > 2:
+            bank_of[0, 1] = -1  # a ridge outside the first layer's contact
         rough_weights = rng.uniform(0.0, 1e-3, (layers, ridges))
         rough_weights[0, 0] = 0.0
         rough_weights[:, -1] = 0.0  # a ridge outside every layer's contact
@@ -406,10 +419,19 @@ def test_the_felt_layers_kernel_gives_the_ridge_by_ridge_bits():
         frac = np.array([c - math.floor(c) for c in cells])
         heights, slopes = np.full((layers, n), np.nan), np.full((layers, n), np.nan)
         kernels.felt_layers(
-            profiles, whole, frac, rough_weights, mark_weights, totals, 5e-6, heights, slopes
+            profiles,
+            bank_of,
+            whole,
+            frac,
+            rough_weights,
+            mark_weights,
+            totals,
+            5e-6,
+            heights,
+            slopes,
         )
         want_h, want_s = _felt_layers_numpy(
-            profiles, cells, rough_weights, mark_weights, totals, 5e-6
+            profiles, bank_of, cells, rough_weights, mark_weights, totals, 5e-6
         )
         assert np.array_equal(heights, want_h), (k, ridges)
         assert np.array_equal(slopes, want_s), (k, ridges)
@@ -445,6 +467,20 @@ def test_the_weighted_rows_and_the_box_mean_sum_in_one_order():
             assert np.array_equal(in_place, want)
             same = np.convolve(x, np.ones(width) / width, mode="same")
             np.testing.assert_allclose(out, same, rtol=0, atol=1e-12)
+    for width in (1, 3, 6, 29):
+        taps = rng.uniform(0.1, 1.0, width)
+        taps /= taps.sum()
+        x = rng.normal(size=200)
+        out = np.full(x.size, np.nan)
+        kernels.taps_mean(x, taps, out)
+        half = (width - 1) // 2
+        padded = np.pad(x, (width - 1 - half, half))
+        want = np.zeros(x.size)
+        for d in range(width):
+            want = want + padded[d : d + x.size] * taps[d]
+        assert np.array_equal(out, want), width
+        same = np.convolve(x, taps[::-1], mode="same")
+        np.testing.assert_allclose(out, same, rtol=0, atol=1e-12)
 
 
 def test_the_compiled_friction_law_and_layer_position_give_their_numpy_forms_bits():

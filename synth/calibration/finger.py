@@ -61,16 +61,19 @@ def fingerprint_gains(config: SynthConfig, force_n: float = 1.0, draws: int = 20
 
     - ``comb``: the ridges inside the skin's Hertz contact, each weighted by its chord,
       add the mark's phases at their places, ``|sum w exp(i k x)| / sum w``;
-    - ``box``: each ridge averages the surface over its contact width ``w`` with equal
-      weight, as the model does, ``sinc(w / lambda)``;
-    - ``rounded``: what a ridge pressing with a rounded (Hertzian line-contact,
-      elliptical) pressure profile across its width would pass, ``2 J1(x) / x`` with
-      ``x = pi w / lambda``; the model does not use it;
+    - ``box``: what the central ridge, ``w = ridge_width_m`` wide, passes when it averages
+      the surface over its width with equal weight, ``sinc(w / lambda)``;
+    - ``rounded``: what it passes when it presses with a rounded (Hertzian line-contact,
+      elliptical) pressure profile across its width, ``2 J1(x) / x`` with
+      ``x = pi w / lambda``;
+    - ``felt``: what the finger passes as the model takes it, every ridge through its
+      own width and pressure profile (:func:`synth.texture.ridge_widths_m`,
+      :func:`synth.texture.ridge_gains`): ``|sum w g exp(i k x)| / sum w``;
     - ``comb_median`` / ``comb_p90`` / ``percentile``: the comb gain of ``draws`` other
       draws of the same irregularity, and where the finger's own draw ranks among them.
 
     Returns ``{"ridges", "contact_radius_m", "marks": [{"material", "wavelength_m",
-    "comb", "box", "rounded", "comb_median", "comb_p90", "percentile"}, ...]}``.
+    "comb", "box", "rounded", "felt", "comb_median", "comb_p90", "percentile"}, ...]}``.
     """
     from scipy.special import j1
 
@@ -78,13 +81,16 @@ def fingerprint_gains(config: SynthConfig, force_n: float = 1.0, draws: int = 20
         FINGERPRINT_SEED,
         contact_radius_m,
         ridge_draw,
+        ridge_gains,
         ridge_offsets,
+        ridge_widths_m,
         touching_ridges,
     )
 
     f = config.finger
     radius = float(contact_radius_m(f, force_n))
     own_offsets, own_weights = touching_ridges(f, radius)
+    own_widths = ridge_widths_m(f, own_offsets, radius)
     n = ridge_offsets(f).size
     others = [
         touching_ridges(f, radius, ridge_draw(n, f.ridge_spacing_m, f.ridge_jitter, seed))
@@ -100,6 +106,8 @@ def fingerprint_gains(config: SynthConfig, force_n: float = 1.0, draws: int = 20
             k = 2.0 * np.pi / mark.wavelength_m
             x = np.pi * f.ridge_width_m / mark.wavelength_m
             own = comb(own_offsets, own_weights, k)
+            gains = ridge_gains(f, own_widths, mark.wavelength_m)
+            felt = abs(np.sum(own_weights * gains * np.exp(1j * k * own_offsets)))
             spread = np.array([comb(o, w, k) for o, w in others])
             marks.append(
                 {
@@ -108,6 +116,7 @@ def fingerprint_gains(config: SynthConfig, force_n: float = 1.0, draws: int = 20
                     "comb": own,
                     "box": float(np.sinc(f.ridge_width_m / mark.wavelength_m)),
                     "rounded": float(2.0 * j1(x) / x),
+                    "felt": float(felt / own_weights.sum()),
                     "comb_median": float(np.median(spread)),
                     "comb_p90": float(np.percentile(spread, 90)),
                     "percentile": float(100.0 * np.mean(spread < own)),

@@ -160,6 +160,20 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
     ),
     (
         "finger",
+        "ridge_profile_exponent",
+        (0.0, 0.5),
+        "the pressure across a ridge's width: elliptical, a Hertzian line contact (0.5, "
+        "Johnson 1985), against the flat box average it idealises (0)",
+    ),
+    (
+        "finger",
+        "ridge_width_pressure_exponent",
+        (0.0, 0.5),
+        "the ridges' widths: narrowing towards the contact's rim as a Hertzian line "
+        "contact's width follows its load (0.5), against every ridge equally wide (0)",
+    ),
+    (
+        "finger",
         "ridge_jitter",
         (0.0, 0.1, 0.25, 0.4),
         "irregularity of the ridge spacing: 0 a regular comb, up to 0.4 (ridges keep order)",
