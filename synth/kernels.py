@@ -264,13 +264,6 @@ def taps_mean(x, taps, out):
             out[i] += padded[d + i] * tap
 
 
-def box_mean(x, width, out):
-    """The moving mean of ``x`` over ``width`` samples, aligned and zero-padded as
-    ``np.convolve(x, np.ones(width) / width, mode="same")``: :func:`taps_mean` with
-    ``width`` equal taps."""
-    taps_mean(x, np.full(width, 1.0 / width), out)
-
-
 @numba.njit(cache=True, nogil=True)
 def layered_felt(
     points, origins, row_start, layer, last, inv_grid, j, u, s_now, v_now, ahead, h_out, slope_out

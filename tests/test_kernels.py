@@ -437,10 +437,11 @@ def test_the_felt_layers_kernel_gives_the_ridge_by_ridge_bits():
         assert np.array_equal(slopes, want_s), (k, ridges)
 
 
-def test_the_weighted_rows_and_the_box_mean_sum_in_one_order():
-    """``weighted_rows`` adds the rows in order and ``box_mean`` its window's samples in
-    order of their position, to the last bit of the same sums as numpy expressions;
-    both agree with numpy's BLAS-backed products to rounding."""
+def test_the_weighted_rows_and_the_taps_mean_sum_in_one_order():
+    """``weighted_rows`` adds the rows in order and ``taps_mean`` (equal taps: a box, as
+    a flat ridge averages; or any taps) its window's samples in order of their
+    position, to the last bit of the same sums as numpy expressions; both agree with
+    numpy's BLAS-backed products to rounding."""
     rng = np.random.default_rng(7)
     for r_count, n in ((1, 5), (3, 400), (12, 1001), (0, 7)):
         w, rows = rng.normal(size=r_count), rng.normal(size=(r_count, n))
@@ -455,7 +456,7 @@ def test_the_weighted_rows_and_the_box_mean_sum_in_one_order():
         for n in (width, 30, 999):
             x = rng.normal(size=n)
             out = np.full(n, np.nan)
-            kernels.box_mean(x, width, out)
+            kernels.taps_mean(x, np.full(width, 1.0 / width), out)
             half = (width - 1) // 2
             padded = np.pad(x, (width - 1 - half, half))
             want = np.zeros(n)
@@ -463,7 +464,7 @@ def test_the_weighted_rows_and_the_box_mean_sum_in_one_order():
                 want = want + padded[d : d + n] * (1.0 / width)
             assert np.array_equal(out, want), (width, n)
             in_place = x.copy()
-            kernels.box_mean(in_place, width, in_place)
+            kernels.taps_mean(in_place, np.full(width, 1.0 / width), in_place)
             assert np.array_equal(in_place, want)
             same = np.convolve(x, np.ones(width) / width, mode="same")
             np.testing.assert_allclose(out, same, rtol=0, atol=1e-12)
