@@ -22,7 +22,8 @@ cos(z, w_n) + b_n``), with Adam; queries are only forwarded.
   head settings (250 steps at 1.5e-3 adapt two small matrices; here a whole network
   starts from random weights): ``fit`` chooses them on validation episodes drawn from the
   training split, per validated shot and way, reading each rate's validation curve at
-  doubling step counts until a doubling brings no gain, exactly as for the CNN and BiLSTM
+  doubling step counts until a doubling brings no gain beyond the best point's 95 % CI,
+  exactly as for the CNN and BiLSTM
   baselines (:func:`models.nets.select_schedule`, rates :data:`LRS`, which include the
   head's 1.5e-3). ``schedule_`` records the settings and the curves. The validation
   episodes come from the same training trials the feature optimisation saw, so their

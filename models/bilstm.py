@@ -13,12 +13,13 @@ one network per episode, 500 episodes per column, within a 2-core budget.
 
 Training: Adam on the support cross-entropy (full batch); the learning rate and step count
 are chosen per validated shot (1, 3, 5) and way (5, 12, 36) on validation episodes from
-the training split, read at doubling step counts until a doubling brings no gain, as for
-the CNN baseline (:func:`models.nets.select_schedule`, rates :data:`LRS`); ``schedule_``
-records the settings and the curves. On the paper preset's training half its curves
-level off early at every way (10-20 steps at the fastest rate; 40 at 3-shot 36-way),
-unlike the CNN's, whose large-way curves need 80-160 steps: the shot and the way are
-both validated all the same, since which of them matters is the data's to say.
+the training split, read at doubling step counts until a doubling brings no gain beyond
+the best point's 95 % CI, as for the CNN baseline (:func:`models.nets.select_schedule`,
+rates :data:`LRS`); ``schedule_`` records the settings and the curves. On the paper
+preset's training half its curves level off early at every way (10-20 steps at the
+fastest rate; 40 at 3-shot 36-way), unlike the CNN's, whose large-way curves need 80-160
+steps: the shot and the way are both validated all the same, since which of them matters
+is the data's to say.
 Hidden size 16 per direction; the two final hidden states (32 values) feed a linear head.
 
 The E networks of a chunk of episodes are trained together: their weights are stacked

@@ -15,12 +15,13 @@ trained from scratch on each episode's support set only, then applied to its que
   (:func:`models.nets.select_schedule`): for each of Table I's shots (1, 3, 5) and the
   ways 5, 12 and 36 (lowered to the training classes), every rate of :data:`LRS` is
   trained on the same episodes and read at 5, 10, 20, ... steps until a doubling brings no
-  gain; the setting is the fewest steps within the 95 % CI of the best accuracy. A test
-  episode takes the setting of the validated cell nearest in shot, then in way (log
-  scale). The way matters as much as the shot: on the paper preset's training half the
-  5-way curves level off after 20-40 steps, the 12-way ones after about 80 and the
-  36-way ones after 80-160 (a 36-way 1-shot network reads 27 % after 20 steps and 72 %
-  after 80), so one setting chosen at 5 ways would leave the large episodes unfitted.
+  gain beyond the best point's 95 % CI; the setting is the fewest steps within the 95 % CI
+  of the best accuracy. A test episode takes the setting of the validated cell nearest in
+  shot, then in way (log scale). The way matters as much as the shot: on the paper
+  preset's training half the 5-way 1-shot curves level off after 20-40 steps and the
+  36-way ones after 40-160 (a 36-way 1-shot network reads 14 % after 20 steps at the
+  middle rate and 25 % after 40), so one setting chosen at 5 ways could leave the large
+  episodes unfitted.
   ``schedule_`` holds the settings and the curves. Passing ``lr`` and ``steps`` skips the
   selection; passing one fixes its axis.
 

@@ -16,8 +16,9 @@ episodes drawn from the training split only; nothing from the test classes enter
 network trained per episode (:class:`EpisodeNet`, :class:`EpisodeTrainer`) gets a
 :class:`Schedule`: per validated (shot, way) cell the learning rate and step count
 chosen on that cell's validation curves (:func:`select_schedule`), each curve read at
-doubling step counts until a doubling brings no gain, so the training length is where
-the validation accuracy stops rising, not a fixed budget.
+doubling step counts until a doubling brings no gain beyond the best point's 95 %
+confidence interval, so the training length is where the validation accuracy stops
+rising measurably, not a fixed budget.
 """
 
 from __future__ import annotations
@@ -342,9 +343,8 @@ VALIDATION_WAYS: tuple[int, ...] = (5, 12, 36)
 #: The first step count the validation curves are read at; each next one doubles it.
 FIRST_MARK = 5
 #: The curve of one learning rate is extended (step counts doubled) until a doubling brings
-#: no gain over the best so far; this bounds it where no validation curve of this project
-#: comes near (they level off within a few hundred steps), and the schedule records
-#: whether a curve reached it.
+#: no gain beyond the best point's 95 % CI (:func:`_curve`); this bounds it for curves
+#: that keep gaining, and the schedule records whether a curve reached it.
 MAX_MARK = FIRST_MARK * 2**11
 #: Doublings in a row without gain that end a validation curve still below twice chance.
 CHANCE_PATIENCE = 3
@@ -444,10 +444,14 @@ def _curve(
     net: EpisodeNet, x: torch.Tensor, batch: EpisodeBatch, lr: float, seed: int
 ) -> tuple[list[int], np.ndarray, bool]:
     """Step counts read and per-episode validation accuracies ``(marks, E)`` of one rate:
-    from :data:`FIRST_MARK`, doubled until a doubling brings no gain in mean accuracy over
-    the best so far (or :data:`MAX_MARK`); while the best is below twice chance (2 / N),
-    only :data:`CHANCE_PATIENCE` doublings in a row without gain end it. All chunks of
-    the batch are trained in lockstep."""
+    from :data:`FIRST_MARK`, doubled until a doubling brings no gain (or :data:`MAX_MARK`);
+    while the best is below twice chance (2 / N), only :data:`CHANCE_PATIENCE` doublings in
+    a row without gain end it. A doubling gains when its mean accuracy exceeds the best so
+    far by more than that best point's 95 % CI half-width: the tolerance
+    :func:`choose_setting` applies, so the curve stops where a longer training could only
+    add points the choice cannot tell from the best (validation episodes are few, and a
+    mean creeping up by a fraction of its CI would otherwise keep doubling the cost). All
+    chunks of the batch are trained in lockstep."""
     gen = torch.Generator().manual_seed(seed)
     trainers = [
         (sl, EpisodeTrainer(net, x, batch.support[sl], batch.query[sl], lr=lr, generator=gen))
@@ -455,7 +459,7 @@ def _curve(
     ]
     marks: list[int] = []
     accs: list[np.ndarray] = []
-    mark, best, flat = FIRST_MARK, -1.0, 0
+    mark, best, best_ci, flat = FIRST_MARK, -1.0, 0.0, 0
     while True:
         pred = np.empty(batch.query.shape, dtype=np.int64)
         for sl, trainer in trainers:
@@ -467,10 +471,12 @@ def _curve(
         # A doubling without gain ends the curve once the networks have left chance (a
         # slow rate's first marks can sit at chance before the accuracy rises), and
         # :data:`CHANCE_PATIENCE` of them in a row end it in any case.
-        flat = flat + 1 if acc.mean() <= best else 0
+        mean = float(acc.mean())
+        flat = flat + 1 if mean <= best + best_ci else 0
         if flat and (best >= 2.0 / batch.n_way or flat >= CHANCE_PATIENCE):
             return marks, np.stack(accs), True
-        best = max(best, float(acc.mean()))
+        if mean > best:
+            best, best_ci = mean, _ci95(acc)
         if mark >= MAX_MARK:
             return marks, np.stack(accs), False
         mark *= 2
