@@ -16,10 +16,10 @@ are chosen per validated shot (1, 3, 5) and way (5, 12, 36) on validation episod
 the training split, read at doubling step counts until a doubling brings no gain beyond
 the best point's 95 % CI, as for the CNN baseline (:func:`models.nets.select_schedule`,
 rates :data:`LRS`); ``schedule_`` records the settings and the curves. On the paper
-preset's training half its curves level off early at every way (10-20 steps at the
-fastest rate; 40 at 3-shot 36-way), unlike the CNN's, whose large-way curves need 80-160
-steps: the shot and the way are both validated all the same, since which of them matters
-is the data's to say.
+preset's training half its curves level off early at every way (at the fastest rate
+after 5-10 steps at 5 ways and 20-40 at 36 ways), unlike the CNN's, whose 36-way curves
+need 40-160 steps: the shot and the way are both validated all the same, since which of
+them matters is the data's to say.
 Hidden size 16 per direction; the two final hidden states (32 values) feed a linear head.
 
 The E networks of a chunk of episodes are trained together: their weights are stacked
