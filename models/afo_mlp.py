@@ -23,11 +23,11 @@ cos(z, w_n) + b_n``), with Adam; queries are only forwarded.
   starts from random weights): ``fit`` chooses them on validation episodes drawn from the
   training split, per validated shot and way, reading each rate's validation curve at
   doubling step counts until a doubling brings no gain beyond the best point's 95 % CI,
-  exactly as for the CNN and BiLSTM
-  baselines (:func:`models.nets.select_schedule`, rates :data:`LRS`, which include the
-  head's 1.5e-3). ``schedule_`` records the settings and the curves. The validation
-  episodes come from the same training trials the feature optimisation saw, so their
-  accuracy is optimistic; they only decide how long and how fast a support set is fitted.
+  exactly as for the CNN and BiLSTM baselines (:func:`models.nets.select_schedule`, rates
+  :data:`LRS`, which include the head's 1.5e-3). ``schedule_`` records the settings and
+  the curves. The validation episodes come from the same training trials the feature
+  optimisation saw, so their accuracy is optimistic; they only decide how long and how
+  fast a support set is fitted.
 - All episodes of a chunk are one batched problem: per-episode weights are ``(E, ...)``
   tensors multiplied with ``bmm``, so episodes never interact.
 

@@ -127,8 +127,8 @@ def test_deterministic_no_leak_and_rejects_malformed_support(name, easy):
 def test_raw_signal_baselines_choose_their_settings_on_training_data(easy, monkeypatch):
     """Without given values, CNN and BiLSTM pick a rate and a step count per validated shot
     and way on validation episodes of the training split, each curve read until a doubling
-    brings no gain; MAML picks its inner rate and test steps and stops early on held-out
-    training classes; each records the evidence."""
+    brings no gain beyond the best point's 95 % CI; MAML picks its inner rate and test
+    steps and stops early on held-out training classes; each records the evidence."""
     data, _ = easy
     train, _ = _split(data.label)
     sig, lab = data.signals[train], data.label[train]
