@@ -25,7 +25,9 @@ class Finger:
     #: for the paper's finger; plausible 1-4 g (``scripts/calibrate.py mount`` prints the
     #: mount's modes for it, ``scripts/calibrate.py sweep`` measures the range).
     pad_mass_kg: float = 0.003
-    #: Phalanx + carriage mass the robot's drives move.
+    #: Phalanx + carriage mass the robot's drives move. Not measured for the paper's
+    #: finger (a printed phalanx with its mount and flange adapter): a free choice,
+    #: plausible 25-100 g, which ``scripts/calibrate.py sweep`` measures.
     phalanx_mass_kg: float = 0.05
     #: Young's modulus of the PDMS support: Sylgard 184 at the usual 10:1 mix, 2.0 MPa
     #: (``E = 20 MPa / mix ratio`` over 5:1-33:1, 0.57-3.7 MPa, measured in compression:

@@ -49,7 +49,9 @@ class Motion:
     start_transient_s: float = 0.05
     #: Stiffness of the robot's x/y/z position servos: 1 N of friction deflects the tip
     #: 0.05 mm (an arm's tip is stiff; soft drives let friction creep), and the servo mode
-    #: with the phalanx mass (~100 Hz) stays resolved by the physics step.
+    #: with the phalanx mass (~100 Hz) stays resolved by the physics step. Not published
+    #: for the arm's tip: a free choice, plausible 10-40 kN/m (servo mode 69-138 Hz),
+    #: which ``scripts/calibrate.py sweep`` measures.
     servo_stiffness_n_m: float = 20000.0
     #: Their damping: critical for the phalanx and pad mass (2 sqrt(k m)).
     servo_damping_n_s_m: float = 65.0

@@ -100,7 +100,7 @@ class PVDF:
     #: 23 um, and the laminated elements' 125 um (Measurement Specialties, Piezo Film
     #: Sensors Technical Manual). The default is the stock nearest the middle of that
     #: range, 75 um: 41.2 um (``scripts/calibrate.py carrier`` derives both of the
-    #: carrier's figures; the sweep measures the range).
+    #: carrier's figures and prints the ``whatif`` options that measure each stock).
     neutral_axis_offset_m: float = 41.2e-6
     #: In-plane strain of a film per newton of tangential traction on the skin. A
     #: tangential point load ``Q`` on an elastic half-space (Cerruti; Johnson, *Contact
