@@ -64,7 +64,7 @@ def test_sweep_refuses_fewer_than_one_seed_by_name(capsys):
 @pytest.mark.parametrize(
     ("item", "message"),
     [
-        ("finger.phalanx_mass_kg=0.1", "--base must be SECTION.FIELD=VALUE"),
+        ("motion.servo_damping_n_s_m=65", "--base must be SECTION.FIELD=VALUE"),
         ("variability.friction_rel", "--base must be SECTION.FIELD=VALUE"),
         ("variability.friction_rel=high", "--base variability.friction_rel needs a number"),
         ("variability.friction_rel=0_05", "--base variability.friction_rel needs a number"),
@@ -72,8 +72,10 @@ def test_sweep_refuses_fewer_than_one_seed_by_name(capsys):
         ("variability.yaw_rad=-0.001", "must lie in its cited range 0..0.02"),
     ],
 )
-def test_sweep_refuses_a_base_value_outside_a_swept_parameters_range(item, message):
+def test_sweep_refuses_a_base_value_outside_a_swept_parameters_range(item, message, monkeypatch):
     calibrate = _calibrate_module()
+    # A value the sweep accepts would start measuring: fail at once instead of simulating.
+    monkeypatch.setattr(measure, "evaluate", lambda *a, **k: pytest.fail(f"{item} was swept"))
     with pytest.raises(SystemExit, match=re.escape(message)):
         calibrate.main(["sweep", "--base", item])
 
