@@ -32,7 +32,10 @@ class StrainGauge:
     gauge_factor: float = 2.0
     #: Bridge excitation (2.5-10 V is usual for 350 ohm gauges).
     excitation_v: float = 5.0
-    #: Instrumentation amplifier gain.
+    #: Instrumentation amplifier gain. The finger's description does not give it: a free
+    #: choice, plausible 1000-4000 (the front gauge's strongest strokes, about 3 V at
+    #: 2000, stay inside the DAQ's +-10 V at every load), which
+    #: ``scripts/calibrate.py sweep`` measures.
     amplifier_gain: float = 2000.0
     #: Input-referred voltage noise density of the instrumentation amplifier: 9 nV/sqrt(Hz)
     #: for an AD620, 38 for an INA125 (data sheets, at 1 kHz).
@@ -43,6 +46,8 @@ class StrainGauge:
     #: measures.
     lowpass_hz: float = 100.0
     #: Unbalance of the bridge at zero load, as strain (resistor tolerance after nulling).
+    #: Not measured: a free choice, plausible 0-10 microstrain, which
+    #: ``scripts/calibrate.py sweep`` measures.
     offset_strain: float = 2e-6
 
     def __post_init__(self) -> None:
@@ -196,11 +201,15 @@ class Acquisition:
     #: White noise at the ADC input, RMS: 1-2 codes of a 16-bit +-10 V input (code width
     #: ~0.32 mV), the usual random-noise figure of this DAQ class.
     noise_v_rms: float = 0.3e-3
-    #: Mains pickup: frequency and amplitude (random phase per trial).
+    #: Mains pickup: frequency and amplitude (random phase per trial). The amplitude is
+    #: not measured: a free choice, plausible 0.3-3 mV (about one to ten codes), which
+    #: ``scripts/calibrate.py sweep`` measures.
     mains_hz: float = 50.0
     mains_v: float = 1.0e-3
     #: Slow thermal drift of the DC-coupled bridge channels (random walk, volts per
-    #: sqrt(second)); the AC-coupled PVDF chain blocks drift.
+    #: sqrt(second)); the AC-coupled PVDF chain blocks drift. Not measured: a free
+    #: choice, plausible 0.5-5 mV per root second, which ``scripts/calibrate.py sweep``
+    #: measures.
     drift_v_per_sqrt_s: float = 2.0e-3
 
     def __post_init__(self) -> None:

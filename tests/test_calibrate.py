@@ -1019,3 +1019,20 @@ def test_update_compares_each_period_with_the_reference_on_the_same_trials():
     other = update.update_convergence(config, (0.001, 0.004), **small)
     (row,) = other["rows"]
     assert row["surface_update_s"] == 0.004 and 0.0 < row["pvdf_diff_median"] < 1.0
+
+
+def test_every_swept_parameter_spans_its_default_and_says_why():
+    base = synth.SynthConfig()
+    for section, field, values, why in settings.SWEEP:
+        name = f"{section}.{field}"
+        default = settings.default_value(base, section, field)
+        assert len(values) >= 2 and len(set(values)) == len(values), name
+        assert any(math.isclose(v, default, rel_tol=1e-9, abs_tol=1e-15) for v in values), name
+        assert why.strip(), name
+        other = next(v for v in values if not math.isclose(v, default, rel_tol=1e-9))
+        moved = settings.with_value(base, section, field, other)
+        if (section, field) in settings.MATERIAL_FACTORS:
+            # A factor scales the materials' surfaces; it is not a field of its own.
+            assert moved.materials != base.materials, name
+        else:
+            assert math.isclose(settings.default_value(moved, section, field), other), name

@@ -341,6 +341,21 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
         "(its bending strain per newton goes as the side's cube)",
     ),
     (
+        "strain_gauge",
+        "amplifier_gain",
+        (1000.0, 2000.0, 4000.0),
+        "the bridge's instrumentation amplifier gain, not described: a free choice that "
+        "keeps the front gauge's strongest strokes (about 3 V at 2000) inside the DAQ's "
+        "+-10 V at every load of the grid, 1000-4000",
+    ),
+    (
+        "strain_gauge",
+        "offset_strain",
+        (0.0, 2e-6, 1e-5),
+        "the bridge's unbalance at zero load after nulling, not measured: a free choice "
+        "from a perfect null to a 10 microstrain residual",
+    ),
+    (
         "finger",
         "gauge_heights_m.0",
         (0.008, 0.012, 0.016),
@@ -353,6 +368,20 @@ SWEEP: tuple[tuple[str, str, tuple[float, ...], str], ...] = (
         (0.016, 0.020, 0.024),
         "the side gauge's height above the pad's mount on the phalanx, not dimensioned: a "
         "free choice of 16-24 mm",
+    ),
+    (
+        "acquisition",
+        "mains_v",
+        (0.3e-3, 1e-3, 3e-3),
+        "50 Hz mains pickup at the DAQ's input, not measured: a free choice of 0.3-3 mV "
+        "(about a code of the 16-bit input to ten), inside the films' texture band",
+    ),
+    (
+        "acquisition",
+        "drift_v_per_sqrt_s",
+        (0.5e-3, 2e-3, 5e-3),
+        "the bridge channels' slow thermal drift (a random walk), not measured: a free "
+        "choice of 0.5-5 mV per root second",
     ),
     (
         *STRIBECK,
