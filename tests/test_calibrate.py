@@ -1023,16 +1023,12 @@ def test_update_compares_each_period_with_the_reference_on_the_same_trials():
 
 def test_every_swept_parameter_spans_its_default_and_says_why():
     base = synth.SynthConfig()
-    for section, field, values, why in settings.SWEEP:
-        name = f"{section}.{field}"
-        default = settings.default_value(base, section, field)
-        assert len(values) >= 2 and len(set(values)) == len(values), name
-        assert any(math.isclose(v, default, rel_tol=1e-9, abs_tol=1e-15) for v in values), name
-        assert why.strip(), name
-        other = next(v for v in values if not math.isclose(v, default, rel_tol=1e-9))
-        moved = settings.with_value(base, section, field, other)
-        if (section, field) in settings.MATERIAL_FACTORS:
-            # A factor scales the materials' surfaces; it is not a field of its own.
-            assert moved.materials != base.materials, name
-        else:
-            assert math.isclose(settings.default_value(moved, section, field), other), name
+    by_name: dict[str, list] = {}
+    for section, field, value, why, is_default, config in sweep.candidates(base):
+        by_name.setdefault(f"{section}.{field}", []).append((value, why, is_default, config))
+    assert len(by_name) == len(settings.SWEEP)
+    for name, rows in by_name.items():
+        assert len(rows) >= 2 and len({v for v, _, _, _ in rows}) == len(rows), name
+        assert [d for _, _, d, _ in rows].count(True) == 1, name
+        assert all(why.strip() for _, why, _, _ in rows), name
+        assert all(config != base for _, _, d, config in rows if not d), name
