@@ -396,6 +396,13 @@ class MAML(FewShotMethod):
             "accuracy": [round(float(a), 4) for a in final] if len(marks) > 1 else [],
         }
 
+    def embed(self, signals: np.ndarray, features: np.ndarray | None = None) -> np.ndarray:
+        """The meta-learned body's pooled channels ``(n, 32)`` of trials (after ``fit``):
+        what a test episode's zero head first reads, before any adaptation step."""
+        x = torch.as_tensor(self.scaler_.transform(resample(np.asarray(signals))))
+        with torch.no_grad():
+            return embed_cnn(x[:, None], self.body_, LAYERS)[:, 0].numpy()
+
     def _predict(
         self,
         signals: np.ndarray,

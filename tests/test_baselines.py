@@ -257,3 +257,15 @@ def test_maml_first_inner_step_moves_the_zero_head_alone_as_the_full_gradient_do
     assert torch.count_nonzero(grads[-2]) > 0
     for p, g, got in zip(full, grads, fast, strict=True):
         torch.testing.assert_close(got, p - 0.1 * g, rtol=0, atol=0)
+
+
+def test_mamls_embedding_is_its_bodys_per_trial_reading(easy):
+    """MAML.embed gives each trial the body's pooled channels, the same alone as in a
+    batch (the body has no batch statistics)."""
+    data, feats = easy
+    train, test = _split(data.label)
+    model = _fitted("MAML", data, feats, train)
+    whole = model.embed(data.signals[test])
+    assert whole.shape == (test.size, maml.LAYERS[-1].c_out) and np.all(np.isfinite(whole))
+    np.testing.assert_allclose(model.embed(data.signals[test[:3]]), whole[:3], rtol=1e-5, atol=1e-6)
+    assert np.ptp(whole, axis=0).max() > 0  # trials differ in it

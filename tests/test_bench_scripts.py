@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import synth.store
@@ -30,7 +31,9 @@ def _fails(main, argv, capsys) -> str:
     return err
 
 
-@pytest.mark.parametrize("name", ["bench_methods", "bench_closed_set", "bench_store"])
+@pytest.mark.parametrize(
+    "name", ["bench_methods", "bench_closed_set", "bench_store", "embedding_probe"]
+)
 def test_a_missing_dataset_is_one_line_naming_data(name, tmp_path, monkeypatch, capsys):
     main = _script(name, monkeypatch).main
     err = _fails(main, ["--data", str(tmp_path / "nope")], capsys)
@@ -72,7 +75,9 @@ def test_a_dataset_too_small_is_one_line_naming_data(name, trials, message, monk
     assert f"error: --data small {message}" in err
 
 
-@pytest.mark.parametrize("name", ["bench_methods", "bench_malloc", "bench_store", "tune"])
+@pytest.mark.parametrize(
+    "name", ["bench_methods", "bench_malloc", "bench_store", "tune", "embedding_probe"]
+)
 def test_help_shows_the_whole_first_sentence(name, monkeypatch, capsys):
     module = _script(name, monkeypatch)
     with pytest.raises(SystemExit):
@@ -248,3 +253,34 @@ def test_bench_steady_compares_the_steady_stretches_with_the_pads_position(monke
     assert len(out) == 2 + 3 and out[2].startswith("resin")
     err = _fails(module.main, ["--seeds", "0"], capsys)
     assert "--seeds must be at least 1" in err
+
+
+def test_embedding_probe_scores_what_an_embedding_holds(monkeypatch):
+    """A planted embedding: one dimension per shape index, nothing of the material; the
+    shape's 1-NN is perfect, the material's and the class's stay near their chance."""
+    probe = _script("embedding_probe", monkeypatch).probe
+    rng = np.random.default_rng(0)
+    shapes_, materials = ("circle", "square", "moon"), ("resin", "wood", "aluminum")
+    classes = np.array([f"{s}/{m}" for s in shapes_ for m in materials for _ in range(20)])
+    shape_index = np.array([shapes_.index(c.split("/")[0]) for c in classes])
+    embedding = np.column_stack([10.0 * shape_index, rng.normal(size=classes.size)])
+    scores = probe(embedding, classes)
+    assert scores["shape"][0] == 1.0
+    assert scores["material"][1] == pytest.approx(59 / 179)
+    assert scores["material"][0] < 0.5 and scores["class"][0] < 0.5, scores
+
+
+def test_embedding_probe_prints_each_methods_row_and_refuses_one_without_embedding(
+    monkeypatch, capsys
+):
+    data = make_dataset(trials_per_class=4, shapes=("circle", "square", "moon"), n_samples=500)
+    monkeypatch.setattr(synth.store, "load_dataset", lambda path: data)
+    main = _script("embedding_probe", monkeypatch).main
+    err = _fails(main, ["--data", "tiny", "--methods", "CNN"], capsys)
+    assert "error: --methods CNN has no embedding to probe" in err
+    assert main(["--data", "tiny", "--methods", "AFOP-ML"]) == 0
+    out = capsys.readouterr().out
+    row = next(line for line in out.splitlines() if line.startswith("| AFOP-ML |"))
+    cells = row.strip("|").split("|")
+    assert len(cells) == 5
+    assert float(cells[3].split()[0]) > 0.9, row  # the synthetic materials are separable
