@@ -399,9 +399,15 @@ class MAML(FewShotMethod):
     def embed(self, signals: np.ndarray, features: np.ndarray | None = None) -> np.ndarray:
         """The meta-learned body's pooled channels ``(n, 32)`` of trials (after ``fit``):
         what a test episode's zero head first reads, before any adaptation step."""
-        x = torch.as_tensor(self.scaler_.transform(resample(np.asarray(signals))))
         with torch.no_grad():
-            return embed_cnn(x[:, None], self.body_, LAYERS)[:, 0].numpy()
+            return embed_cnn(self._inputs(signals)[:, None], self.body_, LAYERS)[:, 0].numpy()
+
+    def _inputs(self, signals: np.ndarray) -> torch.Tensor:
+        """The network's input of a pool: resampled, z-scored with the training statistics
+        (prepared once per pool)."""
+        return self._cache.get(
+            signals, lambda s: torch.as_tensor(self.scaler_.transform(resample(s)))
+        )
 
     def _predict(
         self,
@@ -410,7 +416,7 @@ class MAML(FewShotMethod):
         query: np.ndarray,
         features: np.ndarray | None,
     ) -> np.ndarray:
-        x = self._cache.get(signals, lambda s: torch.as_tensor(self.scaler_.transform(resample(s))))
+        x = self._inputs(signals)
         _, n_way, k_shot = support.shape
         out = np.empty(query.shape, dtype=np.int64)
         step = episodes_per_chunk(n_way * k_shot, cap=CHUNK, rows=ROWS)

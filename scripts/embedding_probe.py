@@ -87,9 +87,7 @@ def main(argv: list[str] | None = None) -> int:
         method.fit(data.signals[train], data.label[train])
         embedding = method.embed(data.signals[test])
         scores = probe(embedding, classes)
-        cells = " | ".join(
-            f"{acc:.3f} ({chance:.3f})" for acc, chance in (scores[k] for k in scores)
-        )
+        cells = " | ".join(f"{acc:.3f} ({chance:.3f})" for acc, chance in scores.values())
         print(f"| {name} | {embedding.shape[1]} | {cells} |", flush=True)
     return 0
 
