@@ -18,11 +18,17 @@ import traceback
 from collections.abc import Sequence
 
 from benchmark import commands as benchmark_commands
+from benchmark.twin import cli as twin_cli
 from shapes import cli as shapes_cli
 from synth import cli as synth_cli
 from tactile_synth.threads import configure as configure_threads
 
-_REGISTRARS = (shapes_cli.register, synth_cli.register, benchmark_commands.register)
+_REGISTRARS = (
+    shapes_cli.register,
+    synth_cli.register,
+    benchmark_commands.register,
+    twin_cli.register,
+)
 
 
 def version_text() -> str:

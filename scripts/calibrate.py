@@ -45,40 +45,10 @@ source gives; nothing is tuned per shape, material or class.
         over its width with a sharp-edged and with a rounded pressure profile, what the
         whole fingerprint passes as the model takes it, and how the finger's one draw of
         its ridges' irregularity ranks among other draws.
-    python3 scripts/calibrate.py sweep [--trials-per-class 20] [--seeds 1]
-                                       [--only SECTION.FIELD] [--base SECTION.FIELD=VALUE]
-                                       [--set SECTION.FIELD=VALUE] [--out DIR [--resume]]
-        Each global parameter of SWEEP over its cited range, and each material's surface
-        figures (``materials.MATERIAL.FIELD``) over their measured ranges or a free
-        choice's plausible one, and each gauge's height (``finger.gauge_heights_m.I``)
-        (one at a time, the others at their defaults, or at the
-        values ``--base`` sets, each within its parameter's cited range, to see how two
-        parameters act together; ``--set`` changes any numeric field of the
-        configuration the sweep starts from, as whatif's does): generates the paper
-        grid, runs the leave-one-out diagnosis and AFOP-ML's feature selection on the
-        generalisation protocols' training splits, and prints (and writes DIR/calibration.md
-        and .json) what each value changes: strain-gauge shape accuracy
-        (target >= 0.95, every shape >= 0.85), material accuracy per channel group, and the
-        PVDF share of the selected features and the median D on cross-shape and
-        cross-material training splits (the paper's real finger: 21 % and 50 %, D about 6
-        and 12). Only training splits are used: no test accuracy enters. With ``--seeds N``
-        every candidate is generated from N dataset seeds (0..N-1); the figures are their
-        means, and the table adds the shares' standard deviation over the seeds and their
-        difference ``pvdf_share_gap`` (cross-shape minus cross-material, negative on the
-        real finger), since one dataset's shares move by several points with its seed. The
-        paper's shares are of its own D, so the table also gives the share of each split's
-        first 6 (cross-shape) and 12 (cross-material) ranked features and their gap
-        (``pvdf_share_paper_d_*``).
-        Each candidate is measured at the films' post-gain ``gain`` sizes for it (a lab
-        sizes its amplifier for the finger it builds; the table gives it), unless ``--set
-        pvdf.post_gain=G`` holds one for all.
-        DIR's tables are rewritten after every candidate, so an interrupted sweep keeps
-        the rows it measured; ``--resume`` reuses the rows of DIR's table measured with
-        the same trials per class, seeds and configuration, and measures the rest; with
-        ``--only`` it keeps the table's rows of the other parameters too, when that sweep
-        started from the same configuration (so one parameter can be added to a table). A
-        candidate that cannot be simulated (MuJoCo diverges, a channel saturates) gets a
-        row saying why, naming the trial, and the sweep goes on.
+    tactile-synth calibrate --sweep / --whatif
+        The sweep of every global parameter over its cited range and the what-if of one
+        configuration are ``tactile-synth calibrate``'s (``docs/calibrate.md``), on the
+        same parameter registry and measurements as the fit.
 
     python3 scripts/calibrate.py update
         Not a calibration: the surface update period (Motion.surface_update_s, a numerical
@@ -97,52 +67,20 @@ source gives; nothing is tuned per shape, material or class.
         between the materials' means inside a shape; and counts, per sensor, the selected
         features that vary more between materials than between shapes (material-led).
 
-    python3 scripts/calibrate.py whatif [--set SECTION.FIELD=VALUE ...]
-                                        [--trials-per-class 20] [--seeds 1]
-                                        [--closed-set EPISODES [--closed-set-seeds 1]]
-                                        [--keep DIR]
-        Not a calibration: one configuration with any numeric field set to any value its
-        dataclass accepts, inside or outside a cited range (``materials.texture_scale``
-        as in the sweep; ``materials.marks_scale`` scales the periodic marks alone;
-        ``materials.MATERIAL.kinetic_friction`` gives one material a friction level of
-        its own, its static coefficient in the same ratio; ``materials.MATERIAL.FIELD``
-        with FIELD ``roughness_rms_m``, ``correlation_length_m`` or ``mark_amplitude_m``
-        one material's surface; ``materials.stribeck_velocity_m_s`` every material's
-        Stribeck velocity; ``finger.gauge_heights_m.0`` or ``.1`` one gauge's height), to
-        measure what the real finger would have to be for a target to be met; without
-        ``--set``, the defaults. Prints the sweep's metrics over the seeds and, with
-        ``--closed-set N``, AFOP-ML's closed-set 1-shot row over N episodes on a
-        paper-preset dataset (seed 0) of that configuration, with the fit's D, PVDF share
-        and t-SNE indicators; ``--closed-set-seeds M`` measures that row on the datasets
-        of seeds 0..M-1 and adds each figure's mean and standard deviation over them.
-        ``--keep DIR`` keeps the measured dataset of seed 0 in DIR, a new directory (for
-        ``picks`` or ``tactile-synth diagnose``). The films' post-gain is the one ``gain``
-        sizes for the configuration unless ``--set pvdf.post_gain=G`` sets it. The
-        defaults never come from it.
-
-The sweep simulates 36 classes x ``--trials-per-class`` trials per candidate and seed
-(720 at the default of 20); at 30 trials per class and three seeds a candidate costs
-3,240 simulated trials (``docs/speed.md`` gives the simulator's CPU per trial), 72 more
-at the grid's corner to size its gain, and AFOP-ML's selection on each dataset. The
-default configuration is evaluated once.
 """
 
 from __future__ import annotations
 
 import argparse
-import shutil
 import sys
-import tempfile
 import time
-from pathlib import Path
 
 import numpy as np
 
 import synth
 from benchmark import calibration as measure
-from synth.calibration import finger, gain, scatter, settings, sweep, update
+from synth.calibration import finger, gain, scatter, settings, update
 from synth.calibration.settings import CalibrationError
-from tactile_synth.atomic import check_out_dir
 from tactile_synth.validation import float_arg, int_arg
 
 
@@ -279,7 +217,7 @@ def cmd_carrier(args: argparse.Namespace) -> int:
         print(
             f"carrier {thickness * 1e6:g} um: neutral_axis_offset_m {offset:.3g}, "
             f"shear_strain_per_n {shear:.3g}, post_gain {post_gain:g}; measure it with "
-            f"`python3 scripts/calibrate.py whatif --set pvdf.neutral_axis_offset_m={offset:.3g} "
+            f"`tactile-synth calibrate --whatif --set pvdf.neutral_axis_offset_m={offset:.3g} "
             f"--set pvdf.shear_strain_per_n={shear:.3g} --set pvdf.post_gain={post_gain:g}`",
             flush=True,
         )
@@ -338,194 +276,6 @@ def cmd_picks(args: argparse.Namespace) -> int:
     return 0
 
 
-def _measured_or_failed(
-    config: synth.SynthConfig, trials_per_class: int, seeds: int, where: Path
-) -> dict:
-    """A sweep candidate's metrics, or ``{"failed": why}`` when one of its trials cannot be
-    simulated (MuJoCo diverges at this value with the configuration's time step, or a
-    channel saturates): the sweep reports it and goes on to the next candidate."""
-    try:
-        return measure.measured(config, trials_per_class, seeds, where)
-    except synth.SimulationError as exc:
-        return {"failed": str(exc)}
-
-
-def _at_own_gain(
-    config: synth.SynthConfig, sized: dict, hold_gain: bool
-) -> tuple[synth.SynthConfig | str, str]:
-    """The candidate at the post-gain ``gain``'s rule sizes for it (as it is, with
-    ``hold_gain``), or why none could be sized (its trials at the grid's corner diverge,
-    or no round gain fits the DAQ); and the key its measurement is kept under (the
-    candidate's as measured, or as given when it cannot be). ``sized`` keeps each
-    configuration's answer: the base recurs in every parameter's sweep."""
-    if hold_gain:
-        return config, measure.config_key(config)
-    key = measure.config_key(config)
-    if key not in sized:
-        try:
-            sized[key] = gain.at_sized_gain(config)
-        except (CalibrationError, synth.SimulationError) as exc:
-            sized[key] = f"no post-gain could be sized for it: {exc}"
-    own = sized[key]
-    return own, key if isinstance(own, str) else measure.config_key(own)
-
-
-def cmd_sweep(args: argparse.Namespace) -> int:
-    base = settings.configured(args.set)
-    hold_gain = settings.holds_gain(args.set)
-    settings.check_swept(args.only)
-    held = settings.parse_base(args.base)
-    for (section, field), value in held.items():
-        base = settings.with_value(base, section, field, value)
-    out = Path(args.out) if args.out else None
-    if out is not None:
-        try:
-            check_out_dir(out)
-        except OSError as exc:
-            raise SystemExit(str(exc)) from None
-    earlier = sweep.earlier_rows(out, args.trials_per_class, args.seeds) if args.resume else []
-    reuse = sweep.previous_measurements(earlier)
-    rows = []
-    kept: list[dict] = []  # the earlier table's rows of parameters this run does not sweep
-    names: list[str] = []  # the metrics' names, from the first candidate measured
-    done: dict[str, dict] = {}  # the default configuration recurs in every parameter's sweep
-    sized: dict[str, synth.SynthConfig | str] = {}
-    with tempfile.TemporaryDirectory() as tmp:
-        where = Path(tmp) / "grid"
-        if earlier:
-            _, base_key = _at_own_gain(base, sized, hold_gain)
-            kept = sweep.kept_rows(earlier, base_key, sweep.swept_parameters(args.only, held))
-        try:
-            for section, field, value, why, is_default, config in sweep.candidates(
-                base, args.only, held
-            ):
-                t0 = time.perf_counter()
-                own, key = _at_own_gain(config, sized, hold_gain)
-                if isinstance(own, str):  # no gain could be sized: the row says why
-                    post_gain = None
-                    done[key] = {"failed": own}
-                else:
-                    config, post_gain = own, own.pvdf.post_gain
-                if key not in done:
-                    done[key] = reuse.get(key) or _measured_or_failed(
-                        config, args.trials_per_class, args.seeds, where
-                    )
-                failed = done[key].get("failed")
-                metrics = {} if failed else done[key]
-                names = names or list(metrics)
-                row = sweep.sweep_row(
-                    f"{section}.{field}",
-                    value,
-                    why,
-                    is_default,
-                    metrics,
-                    args.trials_per_class,
-                    args.seeds,
-                    key,
-                    failed,
-                    post_gain=post_gain,
-                )
-                rows.append(row)
-                print(
-                    f"{row['parameter']} = {value:g}{' (default)' if row['default'] else ''}"
-                    + (f" (post-gain {post_gain:g}): " if post_gain else ": ")
-                    + (
-                        f"not measured: {failed}"
-                        if failed
-                        else ", ".join(f"{k} {sweep.format_metric(k, metrics[k])}" for k in metrics)
-                    )
-                    + f"  [{time.perf_counter() - t0:.0f} s"
-                    + (", kept from the earlier sweep]" if key in reuse else "]"),
-                    flush=True,
-                )
-                if out is not None:  # after every candidate: an interruption keeps them
-                    sweep.write_tables(
-                        out,
-                        sweep.in_sweep_order(kept + rows),
-                        names or next((r["metrics"] for r in kept if r["metrics"]), []),
-                        args.seeds,
-                    )
-        except KeyboardInterrupt:
-            n_rows = len(kept) + len(rows)
-            where_kept = f"; {n_rows} rows are in {out / 'calibration.json'}" if out else ""
-            again = " (add --resume to continue)" if out else ""
-            raise SystemExit(f"sweep interrupted{where_kept}{again}") from None
-    if out is not None:
-        print(f"wrote {out / 'calibration.md'} and calibration.json")
-    return 0
-
-
-def _fmt_closed_set(key: str, value: float) -> str:
-    """A closed-set row's figure: accuracies in % to 2 decimals, D whole (to 1 decimal
-    for a mean or spread over datasets), the rest to 3."""
-    if key.startswith("closed_set_1shot_"):
-        return f"{value:.2f}"
-    if key == "closed_set_d":
-        return f"{value:d}" if isinstance(value, (int, np.integer)) else f"{value:.1f}"
-    return f"{value:.3f}"
-
-
-def _closed_set_rows(config: synth.SynthConfig, episodes: int, seeds: int, tmp: Path) -> None:
-    """Print :func:`benchmark.calibration.closed_set_row` for dataset seeds
-    0..``seeds``-1 as each is measured and, over two or more, each figure's mean and
-    standard deviation over the seeds (:func:`benchmark.calibration.closed_set_spread`)."""
-    rows = []
-    for seed in range(seeds):
-        row = measure.closed_set_row(config, episodes, tmp / f"paper-{seed}", dataset_seed=seed)
-        rows.append(row)
-        figures = ", ".join(f"{k} {_fmt_closed_set(k, v)}" for k, v in row.items())
-        print(f"dataset seed {seed}: {figures}" if seeds > 1 else figures, flush=True)
-        shutil.rmtree(tmp / f"paper-{seed}", ignore_errors=True)
-    if seeds > 1:
-        spread = [
-            f"{key} {_fmt_closed_set(key, mean)} +- {_fmt_closed_set(key, sd)}"
-            for key, (mean, sd) in measure.closed_set_spread(rows).items()
-        ]
-        print(f"mean +- sd over {seeds} dataset seeds: " + ", ".join(spread), flush=True)
-
-
-def cmd_whatif(args: argparse.Namespace) -> int:
-    from synth.sensors import SaturationError, amplifier_noise_v
-    from synth.simulator import SaturatedTrialError
-
-    keep = None
-    if args.keep is not None:
-        keep = Path(args.keep)
-        try:
-            check_out_dir(keep, "--keep")
-        except OSError as exc:
-            raise SystemExit(str(exc)) from None
-        if keep.exists():
-            raise SystemExit(f"--keep {keep} already exists; choose a new directory")
-    config = gain.configured_at_own_gain(args.set)  # after the checks: sizing simulates
-    noise = amplifier_noise_v(config)
-    print(
-        "what-if configuration: "
-        + (", ".join(args.set) if args.set else "the defaults")
-        + f" (PVDF post-gain {config.pvdf.post_gain:g}"
-        + (", as set" if settings.holds_gain(args.set) else ", sized by the gain rule")
-        + f"; amplifier noise {1e3 * noise[0]:.3g} mV RMS at the DAQ)",
-        flush=True,
-    )
-    with tempfile.TemporaryDirectory() as tmp:
-        try:
-            where = Path(tmp) / "grid"
-            metrics = measure.measured(config, args.trials_per_class, args.seeds, where, keep)
-            print(
-                ", ".join(f"{k} {sweep.format_metric(k, v)}" for k, v in metrics.items()),
-                flush=True,
-            )
-            if keep is not None:
-                print(f"dataset of seed 0 kept in {keep}", flush=True)
-            if args.closed_set:
-                _closed_set_rows(config, args.closed_set, args.closed_set_seeds, Path(tmp))
-        except (SaturationError, SaturatedTrialError) as exc:
-            # A setting that raises a channel's signal can drive it beyond the ADC's range;
-            # the DAQ cannot record that configuration as set.
-            raise SystemExit(f"--set {' '.join(args.set)}: {exc}") from None
-    return 0
-
-
 def _add_set_option(parser: argparse.ArgumentParser, what: str) -> None:
     """The repeatable ``--set SECTION.FIELD=VALUE`` option (read by
     :func:`synth.calibration.settings.configured`)."""
@@ -574,65 +324,12 @@ def main(argv: list[str] | None = None) -> int:
     sub.add_parser(
         "update", help="the surface update period against a 1 ms update (not a calibration)"
     ).set_defaults(func=cmd_update)
-    p = sub.add_parser("sweep", help="the global parameters over their cited ranges")
-    p.add_argument("--trials-per-class", type=int_arg, default=20)
-    p.add_argument(
-        "--seeds", type=int_arg, default=1, help="dataset seeds per candidate (0..N-1; default 1)"
-    )
-    p.add_argument(
-        "--only",
-        action="append",
-        metavar="SECTION.FIELD",
-        help="sweep only this parameter (repeatable)",
-    )
-    p.add_argument(
-        "--base",
-        action="append",
-        metavar="SECTION.FIELD=VALUE",
-        help="hold a swept parameter at this value and sweep the others (repeatable)",
-    )
-    _add_set_option(
-        p, "start from the defaults with this numeric field changed, as whatif's --set does"
-    )
-    p.add_argument(
-        "--out", help="write calibration.md and calibration.json here (after every candidate)"
-    )
-    p.add_argument(
-        "--resume",
-        action="store_true",
-        help="keep the rows of --out's table measured with the same trials and seeds",
-    )
-    p.set_defaults(func=cmd_sweep)
     p = sub.add_parser(
         "picks", help="what the features AFOP-ML's training-split selections rank first tell apart"
     )
     p.add_argument("data", metavar="DATA", help="a dataset (e.g. data/paper)")
     p.add_argument("--top", type=int_arg, default=12, help="ranked features to list per split")
     p.set_defaults(func=cmd_picks)
-    p = sub.add_parser("whatif", help="one configuration, any values (not a calibration)")
-    _add_set_option(p, "set a numeric configuration field")
-    p.add_argument("--trials-per-class", type=int_arg, default=20)
-    p.add_argument("--seeds", type=int_arg, default=1, help="dataset seeds (0..N-1; default 1)")
-    p.add_argument(
-        "--closed-set",
-        type=int_arg,
-        default=0,
-        metavar="EPISODES",
-        help="also AFOP-ML's closed-set 1-shot row over this many episodes (and its t-SNE)",
-    )
-    p.add_argument(
-        "--closed-set-seeds",
-        type=int_arg,
-        default=1,
-        metavar="N",
-        help="measure the closed-set row on paper-preset datasets of seeds 0..N-1 (default 1)",
-    )
-    p.add_argument(
-        "--keep",
-        metavar="DIR",
-        help="keep the dataset of seed 0 in this new directory (for picks, diagnose)",
-    )
-    p.set_defaults(func=cmd_whatif)
     args = parser.parse_args(argv)
     if getattr(args, "trials_per_class", 2) < 2:
         parser.error("--trials-per-class must be at least 2 (leave-one-out needs a neighbour)")

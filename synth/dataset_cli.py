@@ -42,6 +42,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--from-config", metavar="DATASET", help="the exact grid of an existing dataset"
     )
     p.add_argument("--out", required=True, help="dataset path (a Zarr store directory)")
+    p.add_argument(
+        "--finger",
+        metavar="TOML",
+        help="a finger file (the one `tactile-synth calibrate` writes): its global "
+        "parameters set on the grid's simulator configuration",
+    )
     p.add_argument("--shapes", nargs="+", metavar="NAME")
     p.add_argument("--materials", nargs="+", metavar="NAME")
     p.add_argument("--trials-per-class", type=int_arg, metavar="N")
@@ -180,7 +186,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
     elif args.from_config:
         config = store.stored_config(args.from_config)
     elif resume:
-        if not overrides:
+        if not overrides and not getattr(args, "finger", None):
             return None  # the stored grid (of the dataset, or of its unfinished replacement)
         from .generation import check_resume_target
 
@@ -190,12 +196,24 @@ def config_from_args(args: argparse.Namespace) -> Any:
         config = store.stored_config(pending if store.is_store(pending) else out)
     else:
         config = preset("paper")
+    if getattr(args, "finger", None):
+        config = with_finger(config, args.finger)
     if not overrides:
         return config
     try:
         return config.replace(**overrides)
     except ValueError as exc:
         raise ValueError(_as_typed(str(exc), overrides)) from None
+
+
+def with_finger(config: Any, path: str, arg: str = "--finger") -> Any:
+    """The grid ``config`` with the finger file ``path``'s parameters set on its simulator
+    configuration (the defaults where the grid holds none)."""
+    from .calibration.finger_file import apply_finger
+    from .config import SynthConfig
+
+    synth = SynthConfig.from_dict(dict(config.synth)) if config.synth else SynthConfig()
+    return config.replace(synth=apply_finger(synth, path, arg=arg).to_dict())
 
 
 def _as_typed(message: str, overrides: dict[str, Any]) -> str:

@@ -8,6 +8,8 @@ simulates (``docs/experiments.md`` has the schema in full)::
     seed = 0                            # optional (default 0)
     chunk_trials = 36                   # optional (default 36)
     materials = ["wood", "glass", "cork"]   # library materials and the file's own
+    finger = "twin/finger.toml"         # optional: a calibrated finger file
+                                        # (tactile-synth calibrate), applied last
 
     [conditions]
     force_n = [1.0]                     # normal forces (N)
@@ -65,6 +67,7 @@ KEYS = (
     "specimen",
     "material",
     "simulator",
+    "finger",
 )
 #: The keys of its ``[conditions]`` table.
 CONDITION_KEYS = ("force_n", "speed_mm_s", "include_nominal")
@@ -144,6 +147,7 @@ def parse_experiment(
         raise ValueError(f"{file}: simulator: {exc}") from None
     synth = dataclasses.replace(synth, materials=materials, specimens=own)
     synth = _skin_fitted(file, data.get("simulator"), synth)
+    synth = _with_finger(file, data.get("finger"), base_dir, synth)
     grid["shapes"] = tuple(shapes.specimen_name(s) for s in specimens)
     grid["materials"] = tuple(materials)
     # The paper's set-up is stored as None ("the simulator's defaults"), as the presets
@@ -220,6 +224,20 @@ def _skin_fitted(file: str, table: Mapping[str, Any] | None, config: SynthConfig
         raise ValueError(
             f"{file}: [simulator.finger]: the skin's contact cannot be fitted: {exc}"
         ) from None
+
+
+def _with_finger(
+    file: str, path: object, base_dir: str | os.PathLike, config: SynthConfig
+) -> SynthConfig:
+    """``config`` with the finger file ``finger = "FILE"`` names (relative to the
+    experiment file's directory) applied after the ``[simulator]`` tables."""
+    if path is None:
+        return config
+    if not isinstance(path, str) or not path:
+        raise ValueError(f"{file}: finger must be a file name (a finger TOML); got {path!r}")
+    from .calibration.finger_file import apply_finger
+
+    return apply_finger(config, Path(base_dir) / path, arg=f"{file}: finger")
 
 
 def overlay(base: Mapping[str, Any], over: Mapping[str, Any]) -> dict[str, Any]:

@@ -18,26 +18,26 @@ class Finger:
     #: Fingertip pad radius; a human-sized fingertip is ~7-8 mm in radius, and it must
     #: drop into the moon's 12.5 mm notch (sag over 6.25 mm > 2 mm needs r < 10.8 mm).
     #: Not dimensioned in the finger's description: a free choice, plausible 6-8 mm, which
-    #: ``scripts/calibrate.py sweep`` measures (refitting the skin's contact to each).
+    #: ``tactile-synth calibrate --sweep`` measures (refitting the skin's contact to each).
     pad_radius_m: float = 0.007
     #: Moving mass below the PDMS support: silicone skin pad, films and the support's
     #: moving half (a silicone hemisphere of 7 mm radius alone is ~0.8 g). Not measured
     #: for the paper's finger; plausible 1-4 g (``scripts/calibrate.py mount`` prints the
-    #: mount's modes for it, ``scripts/calibrate.py sweep`` measures the range).
+    #: mount's modes for it, ``tactile-synth calibrate --sweep`` measures the range).
     pad_mass_kg: float = 0.003
     #: Phalanx + carriage mass the robot's drives move. Not measured for the paper's
     #: finger (a printed phalanx with its mount and flange adapter): a free choice,
-    #: plausible 25-100 g, which ``scripts/calibrate.py sweep`` measures.
+    #: plausible 25-100 g, which ``tactile-synth calibrate --sweep`` measures.
     phalanx_mass_kg: float = 0.05
     #: Young's modulus of the PDMS support: Sylgard 184 at the usual 10:1 mix, 2.0 MPa
     #: (``E = 20 MPa / mix ratio`` over 5:1-33:1, 0.57-3.7 MPa, measured in compression:
     #: Wang, Volinsky & Gallant 2014, J. Appl. Polym. Sci. 131, 41050). Nearly
     #: incompressible, so its shear modulus is ``E / 3``. The mix is not given: a free
-    #: choice over that range, which ``scripts/calibrate.py sweep`` measures.
+    #: choice over that range, which ``tactile-synth calibrate --sweep`` measures.
     pdms_modulus_pa: float = 2.0e6
     #: The support's geometry, a PDMS disc bonded between the phalanx and the pad. The
     #: finger's description does not give it: a free choice that fits under the 14 mm
-    #: pad (plausible 6-12 mm across, 1-4 mm thick; ``scripts/calibrate.py sweep``
+    #: pad (plausible 6-12 mm across, 1-4 mm thick; ``tactile-synth calibrate --sweep``
     #: measures the thickness). Its stiffnesses follow (:attr:`pdms_shear_stiffness_n_m`,
     #: :attr:`pdms_pitch_stiffness_nm_rad`, :attr:`pdms_normal_stiffness_derived_n_m`).
     #: 10 x 3 mm puts the shear mode at 380 Hz and the rocking mode at 310 Hz, above the
@@ -66,8 +66,8 @@ class Finger:
     #: class, 0.29 MPa small-strain tensile modulus (Marechal et al. 2021, Soft Robotics
     #: Materials Database); a human fingertip is 0.07-0.2 MPa (Oprisan et al. 2016). The
     #: paper names no compound ("soft skin"): a free choice, plausible 0.1-0.58 MPa (a
-    #: fingertip-soft silicone to a compound twice as hard), which ``scripts/calibrate.py
-    #: sweep`` measures (refitting the skin's contact to each; so does ``--set``).
+    #: fingertip-soft silicone to a compound twice as hard), which ``tactile-synth calibrate
+    #: --sweep`` measures (refitting the skin's contact to each; so does ``--set``).
     skin_modulus_pa: float = 0.29e6
     #: Poisson's ratio of silicone (nearly incompressible: 0.48-0.499).
     skin_poisson: float = 0.49
@@ -114,7 +114,7 @@ class Finger:
     ridge_jitter: float = 0.25
     #: Height of the two strain-gauge sites above the pad's mount (phalanx as a cantilever).
     #: Not dimensioned in the finger's description: free choices, plausible 8-16 mm (front
-    #: gauge) and 16-24 mm (side gauge), which ``scripts/calibrate.py sweep`` measures
+    #: gauge) and 16-24 mm (side gauge), which ``tactile-synth calibrate --sweep`` measures
     #: (``finger.gauge_heights_m.0`` and ``.1``).
     gauge_heights_m: tuple[float, ...] = (0.012, 0.020)
     #: The finger's pitch: the phalanx turned about the lateral (y) axis, the same axis

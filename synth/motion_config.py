@@ -51,14 +51,14 @@ class Motion:
     #: 0.05 mm (an arm's tip is stiff; soft drives let friction creep), and the servo mode
     #: with the phalanx mass (~100 Hz) stays resolved by the physics step. Not published
     #: for the arm's tip: a free choice, plausible 10-40 kN/m (servo mode 69-138 Hz),
-    #: which ``scripts/calibrate.py sweep`` measures.
+    #: which ``tactile-synth calibrate --sweep`` measures.
     servo_stiffness_n_m: float = 20000.0
     #: Their damping: critical for the phalanx and pad mass (2 sqrt(k m)).
     servo_damping_n_s_m: float = 65.0
     #: Closed-loop bandwidth of the force loop. Not published for UR force mode; a 125-500
     #: Hz admittance loop with a sample or two of latency is stable up to ~1/10 of its
     #: rate, and contact bouncing is reported at the upper end: 5 Hz (range 1-10 Hz,
-    #: which ``scripts/calibrate.py sweep`` measures).
+    #: which ``tactile-synth calibrate --sweep`` measures).
     force_loop_bandwidth_hz: float = 5.0
     #: MuJoCo impratio: frictional/normal constraint impedance; 10 makes the elliptic
     #: cone's tangential/normal match the coefficient (0.83 at 1 vs 0.90 for 0.9).
@@ -71,7 +71,7 @@ class Motion:
     #: Robotiq FT 300 class, the usual one on UR arms: 0.1 N noise-free resolution at
     #: 100 Hz (its data sheet). A noise-free resolution is the noise's peak-to-peak span,
     #: about 6.6 standard deviations, so 0.015 N RMS (plausible 0.015-0.1 N, the latter
-    #: reading the resolution as the RMS; ``scripts/calibrate.py sweep`` measures both).
+    #: reading the resolution as the RMS; ``tactile-synth calibrate --sweep`` measures both).
     #: Each control period reads the latest reading.
     wrist_force_noise_n: float = 0.015
     #: Wrist force sensor's output rate: 100 Hz (Robotiq FT 300).
@@ -82,7 +82,7 @@ class Motion:
     #: 2 mm off the axis the skin crosses the edges obliquely, so the edges' lateral push
     #: has one sign in every trial instead of flipping with the placement scatter; on the
     #: axis the side gauge reads the symmetric shapes' edges with a sign that the
-    #: placement scatter flips (``scripts/calibrate.py sweep`` measures 0-3 mm).
+    #: placement scatter flips (``tactile-synth calibrate --sweep`` measures 0-3 mm).
     path_y_m: float = 0.002
     #: False: slide on the bare base plate (sensor calibration runs, physics checks).
     raised_shape: bool = True
@@ -189,8 +189,8 @@ class Variability:
     #: 0.033 mm, "The force scatter" in ``docs/simulator.md``) would change the time
     #: between a stroke's first and last touch of an outline, 19-29 mm apart, by sqrt(2)
     #: x 0.033 mm over that stretch: 0.16-0.25 % (``scripts/calibrate.py speed``). How
-    #: closely UR force mode tracks its path is not published. ``scripts/calibrate.py
-    #: sweep`` measures 0, 0.25 %, 1 % and 3 %.
+    #: closely UR force mode tracks its path is not published. ``tactile-synth calibrate
+    #: --sweep`` measures 0, 0.25 %, 1 % and 3 %.
     speed_rel: float = 0.01
     #: Stroke-to-stroke scatter of the friction coefficient on one specimen (coefficient
     #: of variation). Two platinum-cure silicones slid 30 times over one PLA track at

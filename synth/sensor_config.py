@@ -25,7 +25,7 @@ class StrainGauge:
 
     #: Phalanx as a square printed beam (PLA-like): modulus and cross-section side. The
     #: section is not dimensioned in the finger's description: a free choice, plausible
-    #: 6-10 mm, which ``scripts/calibrate.py sweep`` measures.
+    #: 6-10 mm, which ``tactile-synth calibrate --sweep`` measures.
     beam_modulus_pa: float = 3.5e9
     beam_side_m: float = 0.008
     #: Constantan foil gauge factor (2.0-2.2).
@@ -35,19 +35,19 @@ class StrainGauge:
     #: Instrumentation amplifier gain. The finger's description does not give it: a free
     #: choice, plausible 1000-4000 (the front gauge's strongest strokes, about 3 V at
     #: 2000, stay inside the DAQ's +-10 V at every load), which
-    #: ``scripts/calibrate.py sweep`` measures.
+    #: ``tactile-synth calibrate --sweep`` measures.
     amplifier_gain: float = 2000.0
     #: Input-referred voltage noise density of the instrumentation amplifier: 9 nV/sqrt(Hz)
     #: for an AD620, 38 for an INA125 (data sheets, at 1 kHz).
     amplifier_noise_v_per_sqrt_hz: float = 20e-9
     #: DC-coupled low-pass of the conditioning (static channels). The finger's description
     #: does not give the conditioning: a free choice, plausible 10-400 Hz (a static
-    #: reading up to the DAQ's anti-alias corner), which ``scripts/calibrate.py sweep``
+    #: reading up to the DAQ's anti-alias corner), which ``tactile-synth calibrate --sweep``
     #: measures.
     lowpass_hz: float = 100.0
     #: Unbalance of the bridge at zero load, as strain (resistor tolerance after nulling).
     #: Not measured: a free choice, plausible 0-10 microstrain, which
-    #: ``scripts/calibrate.py sweep`` measures.
+    #: ``tactile-synth calibrate --sweep`` measures.
     offset_strain: float = 2e-6
 
     def __post_init__(self) -> None:
@@ -129,7 +129,7 @@ class PVDF:
     #: Position of each film's centre: this far ahead of (front) and behind (rear) the
     #: pad's axis, on the skin's surface. Not dimensioned in the finger's description: a
     #: free choice that keeps both strips on the 7 mm pad's flank and apart (3-4.5 mm,
-    #: which ``scripts/calibrate.py sweep`` measures).
+    #: which ``tactile-synth calibrate --sweep`` measures).
     offset_m: float = 4.0e-3
     #: Charge amplifier feedback capacitance and resistance: 1 nF, 100 MOhm -> 1.6 Hz
     #: high-pass, which blocks the film's pyroelectric and slow thermal drift. The
@@ -139,7 +139,7 @@ class PVDF:
     #: charge, with the film's and the input's capacitance in place of ``C_f`` (Piezo
     #: Film Sensors Technical Manual: 10 MOhm in its example), and across 10 MOhm its
     #: corner, about 90 Hz, lies inside the texture band, where the output follows the
-    #: stress's rate. ``scripts/calibrate.py sweep`` measures a corner of 88 Hz beside
+    #: stress's rate. ``tactile-synth calibrate --sweep`` measures a corner of 88 Hz beside
     #: the default (``docs/simulator.md``, "The films' readout").
     feedback_capacitance_f: float = 1.0e-9
     feedback_resistance_ohm: float = 100e6
@@ -203,12 +203,12 @@ class Acquisition:
     noise_v_rms: float = 0.3e-3
     #: Mains pickup: frequency and amplitude (random phase per trial). The amplitude is
     #: not measured: a free choice, plausible 0.3-3 mV (about one to ten codes), which
-    #: ``scripts/calibrate.py sweep`` measures.
+    #: ``tactile-synth calibrate --sweep`` measures.
     mains_hz: float = 50.0
     mains_v: float = 1.0e-3
     #: Slow thermal drift of the DC-coupled bridge channels (random walk, volts per
     #: sqrt(second)); the AC-coupled PVDF chain blocks drift. Not measured: a free
-    #: choice, plausible 0.5-5 mV per root second, which ``scripts/calibrate.py sweep``
+    #: choice, plausible 0.5-5 mV per root second, which ``tactile-synth calibrate --sweep``
     #: measures.
     drift_v_per_sqrt_s: float = 2.0e-3
 

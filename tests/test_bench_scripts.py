@@ -117,7 +117,7 @@ def test_an_incomplete_dataset_is_finished_the_cli_way(monkeypatch, capsys):
         ("bench_steady", ["--seeds", "1_000"]),
         ("bench_stress", ["--target-s", "1_000"]),
         ("bench_store", ["--repeat", "1_000"]),
-        ("calibrate", ["sweep", "--seeds", "1_000"]),
+        ("calibrate", ["fingerprint", "--draws", "1_000"]),
         ("tune", ["--episodes", "1_000"]),
     ],
 )
@@ -205,7 +205,7 @@ def test_bench_texture_sets_a_materials_texture_and_leaves_the_others(monkeypatc
 
 def test_bench_texture_measures_a_set_configuration_at_its_own_post_gain(monkeypatch, capsys):
     """``--set`` measures that configuration at the films' gain the gain rule sizes for it
-    (as calibrate.py whatif does), unless ``--set pvdf.post_gain`` holds one; a
+    (as calibrate --whatif does), unless ``--set pvdf.post_gain`` holds one; a
     configuration no gain fits ends with one line."""
     module = _script("bench_texture", monkeypatch)
     from synth.calibration import gain

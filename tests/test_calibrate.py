@@ -15,6 +15,7 @@ import pytest
 
 import benchmark.calibration as measure
 import synth
+from benchmark.twin import cli as twin_cli
 from synth import contact, sensors
 from synth.calibration import gain, settings, sweep, update
 from synth.calibration.settings import CalibrationError
@@ -35,16 +36,13 @@ def _gain_rule_without_simulation(monkeypatch):
 
 
 def test_sweep_refuses_an_unknown_parameter_by_name():
-    calibrate = load_script("calibrate")
     with pytest.raises(SystemExit, match="--only must name a swept parameter"):
-        calibrate.main(["sweep", "--only", "finger.no_such_field"])
+        twin_cli.main(["--sweep", "--only", "finger.no_such_field"])
 
 
-def test_sweep_refuses_fewer_than_one_seed_by_name(capsys):
-    calibrate = load_script("calibrate")
-    with pytest.raises(SystemExit):
-        calibrate.main(["sweep", "--seeds", "0"])
-    assert "--seeds must be at least 1" in capsys.readouterr().err
+def test_sweep_refuses_fewer_than_one_seed_by_name():
+    with pytest.raises(SystemExit, match="--seeds must be at least 1"):
+        twin_cli.main(["--sweep", "--seeds", "0"])
 
 
 @pytest.mark.parametrize(
@@ -59,11 +57,10 @@ def test_sweep_refuses_fewer_than_one_seed_by_name(capsys):
     ],
 )
 def test_sweep_refuses_a_base_value_outside_a_swept_parameters_range(item, message, monkeypatch):
-    calibrate = load_script("calibrate")
     # A value the sweep accepts would start measuring: fail at once instead of simulating.
     monkeypatch.setattr(measure, "evaluate", lambda *a, **k: pytest.fail(f"{item} was swept"))
     with pytest.raises(SystemExit, match=re.escape(message)):
-        calibrate.main(["sweep", "--base", item])
+        twin_cli.main(["--sweep", "--base", item])
 
 
 def test_base_values_set_the_configuration_the_others_are_swept_around():
@@ -74,7 +71,6 @@ def test_base_values_set_the_configuration_the_others_are_swept_around():
 
 
 def test_a_held_parameter_is_set_in_every_candidate_and_not_swept(tmp_path, monkeypatch):
-    calibrate = load_script("calibrate")
     seen = []
 
     def evaluate(config, trials_per_class, where, seed):
@@ -88,9 +84,9 @@ def test_a_held_parameter_is_set_in_every_candidate_and_not_swept(tmp_path, monk
         }
 
     monkeypatch.setattr(measure, "evaluate", evaluate)
-    argv = ["sweep", "--base", "variability.friction_rel=0.05", "--out", str(tmp_path)]
+    argv = ["--sweep", "--base", "variability.friction_rel=0.05", "--out", str(tmp_path)]
     argv += ["--only", "variability.friction_rel", "--only", "variability.yaw_rad"]
-    assert calibrate.main(argv) == 0
+    assert twin_cli.main(argv) == 0
     rows = json.loads((tmp_path / "calibration.json").read_text())
     assert [r["parameter"] for r in rows] == ["variability.yaw_rad"] * 4
     assert [r["default"] for r in rows] == [False, True, False, False]
@@ -103,7 +99,6 @@ def test_a_held_parameter_is_set_in_every_candidate_and_not_swept(tmp_path, monk
 
 
 def test_set_moves_the_configuration_the_sweep_starts_from(tmp_path, monkeypatch):
-    calibrate = load_script("calibrate")
     seen = []
 
     def evaluate(config, trials_per_class, where, seed):
@@ -111,14 +106,14 @@ def test_set_moves_the_configuration_the_sweep_starts_from(tmp_path, monkeypatch
         return _fake_metrics(config)
 
     monkeypatch.setattr(measure, "evaluate", evaluate)
-    argv = ["sweep", "--set", "pvdf.post_gain=2", "--set", "variability.yaw_rad=0.01"]
+    argv = ["--sweep", "--set", "pvdf.post_gain=2", "--set", "variability.yaw_rad=0.01"]
     argv += ["--only", "variability.yaw_rad", "--out", str(tmp_path)]
-    assert calibrate.main(argv) == 0
+    assert twin_cli.main(argv) == 0
     rows = json.loads((tmp_path / "calibration.json").read_text())
     assert [r["default"] for r in rows] == [False, False, True, False]
     assert sorted(set(seen)) == [(2.0, 0.0), (2.0, 0.005), (2.0, 0.01), (2.0, 0.02)]
     with pytest.raises(SystemExit, match=r"^--set must be SECTION.FIELD=VALUE"):
-        calibrate.main(["sweep", "--set", "pvdf.no_such_field=1"])
+        twin_cli.main(["--sweep", "--set", "pvdf.no_such_field=1"])
 
 
 def _fake_metrics(config) -> dict:
@@ -133,7 +128,6 @@ def _fake_metrics(config) -> dict:
 
 
 def test_an_interrupted_sweep_keeps_its_rows_and_resumes_where_it_stopped(tmp_path, monkeypatch):
-    calibrate = load_script("calibrate")
     calls = []
 
     def evaluate(config, trials_per_class, where, seed):
@@ -143,9 +137,9 @@ def test_an_interrupted_sweep_keeps_its_rows_and_resumes_where_it_stopped(tmp_pa
         return _fake_metrics(config)
 
     monkeypatch.setattr(measure, "evaluate", evaluate)
-    argv = ["sweep", "--only", "variability.yaw_rad", "--out", str(tmp_path)]
+    argv = ["--sweep", "--only", "variability.yaw_rad", "--out", str(tmp_path)]
     with pytest.raises(SystemExit, match=r"sweep interrupted; 2 rows are in .*--resume"):
-        calibrate.main(argv)
+        twin_cli.main(argv)
     rows = json.loads((tmp_path / "calibration.json").read_text())
     assert [r["value"] for r in rows] == [0.0, 0.005]
     assert len((tmp_path / "calibration.md").read_text().splitlines()) == 2 + 2
@@ -155,13 +149,13 @@ def test_an_interrupted_sweep_keeps_its_rows_and_resumes_where_it_stopped(tmp_pa
         return _fake_metrics(config)
 
     monkeypatch.setattr(measure, "evaluate", resumed)
-    assert calibrate.main([*argv, "--resume"]) == 0
+    assert twin_cli.main([*argv, "--resume"]) == 0
     assert calls == [0.0, 0.005, 0.01, 0.02]  # the first two were not measured again
     rows = json.loads((tmp_path / "calibration.json").read_text())
     assert [r["value"] for r in rows] == [0.0, 0.005, 0.01, 0.02]
     assert [r["pvdf_share_gap"] for r in rows] == pytest.approx([0.0, 0.005, 0.01, 0.02])
     # other trials per class: nothing is reused
-    assert calibrate.main([*argv, "--resume", "--trials-per-class", "5"]) == 0
+    assert twin_cli.main([*argv, "--resume", "--trials-per-class", "5"]) == 0
     assert calls[4:] == [0.0, 0.005, 0.01, 0.02]
     # other tuned hyper-parameters (AFOP-ML's selection measures with them): nothing either
     import models.tuned
@@ -169,7 +163,7 @@ def test_an_interrupted_sweep_keeps_its_rows_and_resumes_where_it_stopped(tmp_pa
     values = models.tuned.tuned_values()
     retuned = {**values, "AFOP-ML": {**values["AFOP-ML"], "ncfs_max_iter": 7}}
     monkeypatch.setattr(models.tuned, "tuned_values", lambda *a: retuned)
-    assert calibrate.main([*argv, "--resume", "--trials-per-class", "5"]) == 0
+    assert twin_cli.main([*argv, "--resume", "--trials-per-class", "5"]) == 0
     assert calls[8:] == [0.0, 0.005, 0.01, 0.02]
 
 
@@ -177,7 +171,6 @@ def test_a_resumed_sweep_of_one_parameter_keeps_the_table_of_the_others(tmp_path
     """``--resume --only`` adds a parameter's rows to a table swept from the same base, in
     the sweep's order, and measures nothing already there; a table swept from another
     base keeps none of its other rows (they would describe that base)."""
-    calibrate = load_script("calibrate")
     calls = []
 
     def evaluate(config, trials_per_class, where, seed):
@@ -186,8 +179,8 @@ def test_a_resumed_sweep_of_one_parameter_keeps_the_table_of_the_others(tmp_path
 
     monkeypatch.setattr(measure, "evaluate", evaluate)
     out = ["--out", str(tmp_path)]
-    assert calibrate.main(["sweep", "--only", "variability.friction_rel", *out]) == 0
-    assert calibrate.main(["sweep", "--only", "variability.yaw_rad", *out, "--resume"]) == 0
+    assert twin_cli.main(["--sweep", "--only", "variability.friction_rel", *out]) == 0
+    assert twin_cli.main(["--sweep", "--only", "variability.yaw_rad", *out, "--resume"]) == 0
     rows = json.loads((tmp_path / "calibration.json").read_text())
     assert [r["parameter"] for r in rows] == ["variability.yaw_rad"] * 4 + [
         "variability.friction_rel"
@@ -202,12 +195,12 @@ def test_a_resumed_sweep_of_one_parameter_keeps_the_table_of_the_others(tmp_path
 
     monkeypatch.setattr(measure, "evaluate", interrupted)
     with pytest.raises(SystemExit, match=r"sweep interrupted; 9 rows are in .*--resume"):
-        calibrate.main(["sweep", "--only", "variability.force_rel", *out, "--resume"])
+        twin_cli.main(["--sweep", "--only", "variability.force_rel", *out, "--resume"])
     assert len(json.loads((tmp_path / "calibration.json").read_text())) == 9
     monkeypatch.setattr(measure, "evaluate", evaluate)
     # from another base, the friction rows are not this table's
-    argv = ["sweep", "--only", "variability.yaw_rad", *out, "--resume"]
-    assert calibrate.main([*argv, "--set", "variability.force_rel=0.1"]) == 0
+    argv = ["--sweep", "--only", "variability.yaw_rad", *out, "--resume"]
+    assert twin_cli.main([*argv, "--set", "variability.force_rel=0.1"]) == 0
     rows = json.loads((tmp_path / "calibration.json").read_text())
     assert [r["parameter"] for r in rows] == ["variability.yaw_rad"] * 4
     assert len(calls) == 8 + 4
@@ -216,7 +209,6 @@ def test_a_resumed_sweep_of_one_parameter_keeps_the_table_of_the_others(tmp_path
 def test_a_candidate_that_cannot_be_simulated_is_reported_and_the_sweep_goes_on(
     tmp_path, monkeypatch
 ):
-    calibrate = load_script("calibrate")
     calls = []
 
     def evaluate(config, trials_per_class, where, seed):
@@ -226,8 +218,8 @@ def test_a_candidate_that_cannot_be_simulated_is_reported_and_the_sweep_goes_on(
         return _fake_metrics(config)
 
     monkeypatch.setattr(measure, "evaluate", evaluate)
-    argv = ["sweep", "--only", "variability.yaw_rad", "--out", str(tmp_path)]
-    assert calibrate.main(argv) == 0
+    argv = ["--sweep", "--only", "variability.yaw_rad", "--out", str(tmp_path)]
+    assert twin_cli.main(argv) == 0
     rows = json.loads((tmp_path / "calibration.json").read_text())
     assert [r["value"] for r in rows] == [0.0, 0.005, 0.01, 0.02]
     assert rows[2]["failed"] == "MuJoCo warning mjWARN_BADQACC while simulating x"
@@ -236,19 +228,18 @@ def test_a_candidate_that_cannot_be_simulated_is_reported_and_the_sweep_goes_on(
     assert table[4].startswith("| variability.yaw_rad | 0.01 | 1 | not measured: MuJoCo warning")
     assert table[4].count("|") == table[0].count("|")
     # resumed, the failed candidate is not simulated again (it would fail bit for bit)
-    assert calibrate.main([*argv, "--resume"]) == 0
+    assert twin_cli.main([*argv, "--resume"]) == 0
     assert calls == [0.0, 0.005, 0.01, 0.02]
     assert json.loads((tmp_path / "calibration.json").read_text()) == rows
     # whatif, which measures one configuration, stops with one line naming the trial
-    with pytest.raises(SystemExit, match=r"^calibrate.py whatif: MuJoCo warning mjWARN_BADQACC"):
-        calibrate.main(["whatif", "--set", "variability.yaw_rad=0.01"])
+    with pytest.raises(SystemExit, match=r"^calibrate --whatif: MuJoCo warning mjWARN_BADQACC"):
+        twin_cli.main(["--whatif", "--set", "variability.yaw_rad=0.01"])
 
 
 def test_each_candidate_is_measured_at_the_post_gain_its_own_films_size(tmp_path, monkeypatch):
     """A readout with smaller transients gets a larger gain, one whose transients no gain
     fits is reported unmeasured; ``--set pvdf.post_gain`` holds the gain for all; whatif
     sizes its configuration's gain alike and says so."""
-    calibrate = load_script("calibrate")
     sized, seen = [], []
     per_ohm = {1e9: 0.5, 100e6: 1.0, 10e6: 2.0}
 
@@ -265,8 +256,8 @@ def test_each_candidate_is_measured_at_the_post_gain_its_own_films_size(tmp_path
     monkeypatch.undo()  # the real rule, over a faked sizing
     monkeypatch.setattr(gain, "sized_gain", sized_gain)
     monkeypatch.setattr(measure, "evaluate", evaluate)
-    argv = ["sweep", "--only", "pvdf.feedback_resistance_ohm", "--out", str(tmp_path)]
-    assert calibrate.main(argv) == 0
+    argv = ["--sweep", "--only", "pvdf.feedback_resistance_ohm", "--out", str(tmp_path)]
+    assert twin_cli.main(argv) == 0
     rows = json.loads((tmp_path / "calibration.json").read_text())
     assert [(r["value"], r.get("post_gain")) for r in rows] == [
         (1e9, 0.5),
@@ -281,33 +272,32 @@ def test_each_candidate_is_measured_at_the_post_gain_its_own_films_size(tmp_path
     assert table[4].startswith("| pvdf.feedback_resistance_ohm | 1e+07 | 2 | 0.505 |")
     assert table[5].startswith("| pvdf.feedback_resistance_ohm | 1.8e+06 |  | not measured: no")
     # resumed: every candidate is sized again (cheap), none measured again
-    assert calibrate.main([*argv, "--resume"]) == 0
+    assert twin_cli.main([*argv, "--resume"]) == 0
     assert len(seen) == 3 and len(sized) == 8
     # held: every candidate at the gain --set gives, nothing sized
     seen.clear()
-    assert calibrate.main([*argv, "--set", "pvdf.post_gain=2"]) == 0
+    assert twin_cli.main([*argv, "--set", "pvdf.post_gain=2"]) == 0
     assert {g for _, g in seen} == {2.0} and len(seen) == 4 and len(sized) == 8
-    assert calibrate.main(["whatif", "--set", "pvdf.feedback_resistance_ohm=1e9"]) == 0
+    assert twin_cli.main(["--whatif", "--set", "pvdf.feedback_resistance_ohm=1e9"]) == 0
     assert seen[-1] == (1e9, 0.5)
     with pytest.raises(SystemExit, match=r"^no post-gain from 0.1 up keeps the worst PVDF"):
-        calibrate.main(["whatif", "--set", "pvdf.feedback_resistance_ohm=1.8e6"])
+        twin_cli.main(["--whatif", "--set", "pvdf.feedback_resistance_ohm=1.8e6"])
 
 
 def test_sweep_resume_refuses_without_out_and_a_foreign_table(tmp_path, monkeypatch):
-    calibrate = load_script("calibrate")
 
     def evaluate(*args):
         raise AssertionError("a refused sweep measures nothing")
 
     monkeypatch.setattr(measure, "evaluate", evaluate)
     with pytest.raises(SystemExit, match=r"--resume needs --out DIR"):
-        calibrate.main(["sweep", "--resume"])
+        twin_cli.main(["--sweep", "--resume"])
     table = tmp_path / "calibration.json"
     table.write_text('{"rows": 1}')
     with pytest.raises(SystemExit, match=rf"^--out {table} is a file; choose a directory"):
-        calibrate.main(["sweep", "--out", str(table)])
+        twin_cli.main(["--sweep", "--out", str(table)])
     with pytest.raises(SystemExit, match=r"^--resume: .*calibration.json is not a sweep table"):
-        calibrate.main(["sweep", "--out", str(tmp_path), "--resume"])
+        twin_cli.main(["--sweep", "--out", str(tmp_path), "--resume"])
 
 
 @pytest.mark.parametrize(
@@ -341,9 +331,8 @@ def test_sweep_resume_refuses_without_out_and_a_foreign_table(tmp_path, monkeypa
     ],
 )
 def test_whatif_refuses_a_bad_setting_in_one_line(argv, message):
-    calibrate = load_script("calibrate")
     with pytest.raises(SystemExit, match=re.escape(message)):
-        calibrate.main(["whatif", *argv])
+        twin_cli.main(["--whatif", *argv])
 
 
 def test_set_gives_one_material_a_friction_level_of_its_own():
@@ -606,15 +595,13 @@ def test_marks_scale_scales_the_periodic_marks_and_keeps_the_roughness():
 
 
 def test_whatif_refuses_a_configuration_the_adc_cannot_record_in_one_line():
-    calibrate = load_script("calibrate")
-    argv = ["whatif", "--set", "pvdf.post_gain=500", "--trials-per-class", "2"]
+    argv = ["--whatif", "--set", "pvdf.post_gain=500", "--trials-per-class", "2"]
     saturated = r"^--set pvdf.post_gain=500: ADC saturated .* while simulating shape='"
     with pytest.raises(SystemExit, match=saturated):
-        calibrate.main(argv)
+        twin_cli.main(argv)
 
 
 def test_whatif_evaluates_the_set_configuration_over_every_seed(monkeypatch, capsys):
-    calibrate = load_script("calibrate")
     seen, closed = [], []
     row = {
         "class_all": 0.5,
@@ -635,10 +622,10 @@ def test_whatif_evaluates_the_set_configuration_over_every_seed(monkeypatch, cap
 
     monkeypatch.setattr(measure, "evaluate", evaluate)
     monkeypatch.setattr(measure, "closed_set_row", closed_set)
-    argv = ["whatif", "--set", "pvdf.amplifier_noise_v_per_sqrt_hz=5.6e-4"]
+    argv = ["--whatif", "--set", "pvdf.amplifier_noise_v_per_sqrt_hz=5.6e-4"]
     argv += ["--set", "acquisition.adc_bits=14", "--set", "materials.texture_scale=0.5"]
     argv += ["--set", "pvdf.post_gain=2"]
-    assert calibrate.main([*argv, "--seeds", "2", "--trials-per-class", "4"]) == 0
+    assert twin_cli.main([*argv, "--seeds", "2", "--trials-per-class", "4"]) == 0
     assert [(t, s) for _, t, s in seen] == [(4, 0), (4, 1)]
     config = seen[0][0]
     assert config.pvdf.amplifier_noise_v_per_sqrt_hz == 5.6e-4
@@ -650,12 +637,12 @@ def test_whatif_evaluates_the_set_configuration_over_every_seed(monkeypatch, cap
     out = capsys.readouterr().out
     assert "(PVDF post-gain 2, as set; amplifier noise 30.2 mV RMS at the DAQ)" in out
     assert "pvdf_share_gap -0.300" in out
-    assert calibrate.main([*argv, "--closed-set", "50"]) == 0
+    assert twin_cli.main([*argv, "--closed-set", "50"]) == 0
     assert [(e, s) for _, e, s in closed] == [(50, 0)]
     assert closed[0][0] == config
     assert "closed_set_1shot_5way 90.00, closed_set_d 8, tsne_dgi 4.769" in capsys.readouterr().out
     closed.clear()
-    assert calibrate.main([*argv, "--closed-set", "50", "--closed-set-seeds", "3"]) == 0
+    assert twin_cli.main([*argv, "--closed-set", "50", "--closed-set-seeds", "3"]) == 0
     assert [(e, s) for _, e, s in closed] == [(50, 0), (50, 1), (50, 2)]
     out = capsys.readouterr().out
     assert "dataset seed 2: closed_set_1shot_5way 94.00, closed_set_d 8" in out
@@ -664,7 +651,6 @@ def test_whatif_evaluates_the_set_configuration_over_every_seed(monkeypatch, cap
 
 
 def test_whatif_keeps_the_dataset_of_seed_0_where_asked(tmp_path, monkeypatch, capsys):
-    calibrate = load_script("calibrate")
     shares = ("cross_shape", "cross_material", "paper_d_cross_shape", "paper_d_cross_material")
 
     def evaluate(config, trials_per_class, where, seed):
@@ -675,18 +661,17 @@ def test_whatif_keeps_the_dataset_of_seed_0_where_asked(tmp_path, monkeypatch, c
 
     monkeypatch.setattr(measure, "evaluate", evaluate)
     keep = tmp_path / "kept"
-    assert calibrate.main(["whatif", "--seeds", "3", "--keep", str(keep)]) == 0
+    assert twin_cli.main(["--whatif", "--seeds", "3", "--keep", str(keep)]) == 0
     assert (keep / "seed").read_text() == "0"
     assert f"dataset of seed 0 kept in {keep}" in capsys.readouterr().out
     with pytest.raises(SystemExit, match=re.escape(f"--keep {keep} already exists")):
-        calibrate.main(["whatif", "--keep", str(keep)])
+        twin_cli.main(["--whatif", "--keep", str(keep)])
     (tmp_path / "file").write_text("")
     with pytest.raises(SystemExit, match=re.escape(f"--keep {tmp_path / 'file'} is a file")):
-        calibrate.main(["whatif", "--keep", str(tmp_path / "file")])
+        twin_cli.main(["--whatif", "--keep", str(tmp_path / "file")])
 
 
 def test_whatif_without_a_setting_measures_the_defaults(monkeypatch, capsys):
-    calibrate = load_script("calibrate")
     seen = []
 
     def evaluate(config, trials_per_class, where, seed):
@@ -695,15 +680,13 @@ def test_whatif_without_a_setting_measures_the_defaults(monkeypatch, capsys):
         return {"class_all": 0.5, **{f"pvdf_share_{k}": 0.3 for k in shares}}
 
     monkeypatch.setattr(measure, "evaluate", evaluate)
-    assert calibrate.main(["whatif", "--trials-per-class", "4"]) == 0
+    assert twin_cli.main(["--whatif", "--trials-per-class", "4"]) == 0
     assert [c.to_dict() for c in seen] == [synth.SynthConfig().to_dict()]
     assert "what-if configuration: the defaults (" in capsys.readouterr().out
-    with pytest.raises(SystemExit):
-        calibrate.main(["whatif", "--closed-set", "5", "--closed-set-seeds", "0"])
-    assert "error: --closed-set-seeds must be at least 1" in capsys.readouterr().err
-    with pytest.raises(SystemExit):
-        calibrate.main(["whatif", "--closed-set-seeds", "3"])
-    assert "error: --closed-set-seeds needs --closed-set EPISODES" in capsys.readouterr().err
+    with pytest.raises(SystemExit, match=r"^--closed-set-seeds must be at least 1"):
+        twin_cli.main(["--whatif", "--closed-set", "5", "--closed-set-seeds", "0"])
+    with pytest.raises(SystemExit, match=r"^--closed-set-seeds needs --closed-set EPISODES"):
+        twin_cli.main(["--whatif", "--closed-set-seeds", "3"])
     assert len(seen) == 1  # refused before anything is simulated
 
 

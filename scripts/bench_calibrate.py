@@ -1,0 +1,234 @@
+"""Does ``tactile-synth calibrate`` recover parameters it was not told?
+
+    python3 scripts/bench_calibrate.py [--budget 300] [--truths 20] [--trials-per-class 10]
+                                       [--workers 2] [--seed 0] [--no-twin-check]
+                                       [--out DIR]
+
+Recordings are simulated at hidden values of the calibration's default parameters
+(``benchmark.twin.calibrate.DEFAULT_PARAMETERS``), each hidden vector drawn uniformly
+(in the search's unit cube) over the middle 70 % of every cited range, for the paper's 36
+classes at the nominal condition with ``--trials-per-class`` trials each (a 36 x 10 store).
+One calibration's simulations and posterior serve every hidden vector (the posterior is
+amortised over recordings of the same classes and conditions), so the script measures
+exactly what one ``calibrate`` run does, ``--truths`` times:
+
+- per parameter: how often the hidden value lies inside the reported 90 % interval
+  (simulation-based calibration: at least 85 % of the truths for a calibrated posterior),
+  the median error of the posterior median in percent of the range (on the search's
+  scale: log for a range of ten times or more), how often it is within 10 %, and how
+  often the posterior is flat (the recordings do not pin it down);
+- the wall time of the one calibration (simulations, training, reading the posterior);
+- unless ``--no-twin-check``: AFOP-ML's closed-set 5-way 1-shot accuracy (500 episodes)
+  on the first hidden vector's recordings and on a twin generated from the finger file
+  the calibration writes for them: the twin's within the recordings' 95 % CI or not.
+
+``--out DIR`` keeps the simulations (``DIR/simulations.npz``) so a rerun with the same
+options reuses them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import concurrent.futures as cf
+import multiprocessing
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from script_args import description
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=description(__doc__))
+    parser.add_argument("--budget", type=int, default=300)
+    parser.add_argument("--truths", type=int, default=20)
+    parser.add_argument("--trials-per-class", type=int, default=10)
+    parser.add_argument("--sim-trials-per-class", type=int, default=2)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--no-twin-check", action="store_true")
+    parser.add_argument("--out", help="keep the simulations here (reused on a rerun)")
+    args = parser.parse_args(argv)
+    for name in ("budget", "truths", "trials_per_class", "workers"):
+        if getattr(args, name) < 1:
+            parser.error(f"--{name.replace('_', '-')} must be at least 1")
+
+    import synth
+    from benchmark.twin import calibrate as cal
+    from benchmark.twin.world import World
+    from synth.presets import preset
+
+    parameters = cal.default_parameters()
+    grid = preset("paper")
+    base = synth.SynthConfig().to_dict()
+    base["specimens"] = {}
+    world = World(
+        tuple(grid.classes), tuple((c, 1.0, 10.0) for c in range(len(grid.classes))), base
+    )
+    n_x = len(cal.summary_size(world))
+    out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="bench-calibrate-"))
+    out.mkdir(parents=True, exist_ok=True)
+    sims_path = out / "simulations.npz"
+    start = time.perf_counter()
+    if sims_path.exists():
+        sims = cal.Simulations.load(sims_path)
+        if len(sims.done) != args.budget:
+            parser.error(
+                f"{sims_path} holds {len(sims.done)} simulations, not --budget {args.budget}"
+            )
+    else:
+        unit = cal.draws(args.budget, len(parameters), args.seed)
+        sims = cal.Simulations(
+            unit,
+            np.full((args.budget, n_x), np.nan),
+            np.zeros(args.budget, bool),
+            np.zeros(args.budget, bool),
+        )
+    cal.run_simulations(
+        world,
+        parameters,
+        sims,
+        trials_per_class=args.sim_trials_per_class,
+        seed=args.seed,
+        workers=args.workers,
+        save=sims_path,
+    )
+    sim_s = time.perf_counter() - start
+
+    # The hidden vectors and their recordings' summaries (seeds apart from the calibration's).
+    rng = np.random.default_rng(args.seed + 12345)
+    truths = 0.15 + 0.7 * rng.random((args.truths, len(parameters)))
+    values = cal.physical(parameters, truths)
+    start_rec = time.perf_counter()
+    x_obs = _recordings(world, parameters, values, args)
+    rec_s = time.perf_counter() - start_rec
+
+    start = time.perf_counter()
+    posterior = cal.train_posterior(sims.unit, sims.x, seed=args.seed)
+    train_s = time.perf_counter() - start
+    inside = np.zeros((args.truths, len(parameters)), bool)
+    error = np.zeros((args.truths, len(parameters)))
+    flat = np.zeros((args.truths, len(parameters)), bool)
+    medians = []
+    for j in range(args.truths):
+        s = posterior.sample(x_obs[j], cal.POSTERIOR_SAMPLES, args.seed)
+        q05, q50, q95 = np.quantile(s, [0.05, 0.5, 0.95], axis=0)
+        inside[j] = (q05 <= truths[j]) & (truths[j] <= q95)
+        error[j] = np.abs(q50 - truths[j])
+        flat[j] = q95 - q05 > cal.FLAT_SHARE
+        medians.append([p.from_unit(u) for p, u in zip(parameters, q50, strict=True)])
+    read_s = time.perf_counter() - start
+
+    print(
+        f"{args.truths} hidden parameter vectors, recordings of {len(world.classes)} classes x "
+        f"{args.trials_per_class} trials; one calibration of {args.budget} simulations x "
+        f"{args.sim_trials_per_class} trials per class ({int(sims.failed.sum())} failed in the "
+        f"physics), {posterior.n_train} used"
+    )
+    print()
+    print(
+        "| parameter | true value in 90 % interval | median error (% of range) | within 10 % "
+        "| flat posterior |"
+    )
+    print("|---|---|---|---|---|")
+    for k, p in enumerate(parameters):
+        print(
+            f"| `{p.name}`{' (log)' if p.log else ''} | {inside[:, k].mean():.0%} | "
+            f"{100 * np.median(error[:, k]):.1f} | {(error[:, k] <= 0.1).mean():.0%} | "
+            f"{flat[:, k].mean():.0%} |"
+        )
+    print()
+    print(
+        f"one calibration: {sim_s + train_s + read_s / args.truths:.0f} s wall "
+        f"(simulations {sim_s:.0f} s in {args.workers} workers, training {train_s:.0f} s); "
+        f"recordings simulated in {rec_s:.0f} s"
+    )
+    if not args.no_twin_check:
+        _twin_check(world, parameters, values[0], medians[0], args, out)
+    return 0
+
+
+def _recordings(world, parameters, values, args) -> np.ndarray:
+    from benchmark.twin.calibrate import _simulate_task
+
+    ctx = multiprocessing.get_context("spawn")
+    out = [None] * len(values)
+    with cf.ProcessPoolExecutor(max_workers=args.workers, mp_context=ctx) as pool:
+        futures = [
+            pool.submit(
+                _simulate_task,
+                world,
+                parameters,
+                list(v),
+                args.trials_per_class,
+                args.seed + 1_000_003,
+                j,
+                1,
+            )
+            for j, v in enumerate(values)
+        ]
+        for fut in cf.as_completed(futures):
+            j, x = fut.result()
+            out[j] = x
+    return np.stack(out)
+
+
+def _twin_check(world, parameters, truth, fitted, args, out: Path) -> None:
+    """AFOP-ML 5-way 1-shot on recordings at ``truth`` and on the twin at ``fitted``."""
+    import synth
+    from benchmark.single import benchmark_protocol
+    from synth.calibration.finger_file import apply_finger, write_finger
+    from synth.presets import preset
+
+    finger = write_finger(
+        out / "finger.toml", {p.name: v for p, v in zip(parameters, fitted, strict=True)}
+    )
+    rec_cfg = synth.SynthConfig()
+    from synth.calibration.settings import with_value
+
+    for p, v in zip(parameters, truth, strict=True):
+        rec_cfg = with_value(rec_cfg, p.section, p.field, float(v))
+    grid = preset("paper").replace(trials_per_class=args.trials_per_class)
+    rows = []
+    for name, cfg, seed in (
+        ("recordings", rec_cfg, args.seed + 1),
+        ("twin", apply_finger(synth.SynthConfig(), finger), args.seed + 2),
+    ):
+        store = out / f"{name}_store"
+        synth.generate(
+            grid.replace(synth=cfg.to_dict(), seed=seed),
+            store,
+            overwrite=True,
+            progress=False,
+            workers=args.workers,
+        )
+        records = benchmark_protocol(
+            "closed_set",
+            data_path=store,
+            out=out / f"{name}_closed",
+            methods=["AFOP-ML"],
+            episodes=500,
+            seed=args.seed,
+            progress=False,
+            overwrite=True,
+        )
+        cell = next(
+            r for r in records if getattr(r, "way", None) == 5 and getattr(r, "shot", None) == 1
+        )
+        rows.append((name, cell.accuracy, cell.ci95))
+    (_, acc_r, ci_r), (_, acc_t, _) = rows
+    verdict = "within" if abs(acc_t - acc_r) <= ci_r else "outside"
+    print()
+    print("| store | AFOP-ML closed-set 5-way 1-shot (500 episodes) | 95 % CI |")
+    print("|---|---|---|")
+    for name, acc, ci in rows:
+        print(f"| {name} | {100 * acc:.2f} % | +-{100 * ci:.2f} |")
+    print(f"the twin's accuracy is {verdict} the recordings' 95 % CI")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
