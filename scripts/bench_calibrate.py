@@ -207,7 +207,7 @@ def _twin_check(world, parameters, truth, fitted, args, out: Path) -> None:
             workers=args.workers,
         )
         records = benchmark_protocol(
-            "closed_set",
+            "closed-set",
             data_path=store,
             out=out / f"{name}_closed",
             methods=["AFOP-ML"],

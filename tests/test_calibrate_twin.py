@@ -33,10 +33,11 @@ def stand_in(specs, synth_dict, threads) -> np.ndarray:
     rows = []
     for s in specs:
         rng = np.random.default_rng(s.seed)
-        x = 0.002 * rng.standard_normal((4, T.size))
+        x = 0.005 * rng.standard_normal((4, T.size))
         x += 0.2 * np.sin(2 * np.pi * (3 + len(s.shape)) * T)[None]
-        x[2:] += gain * (0.5 + 0.05 * len(s.shape) + 0.02 * rng.standard_normal((2, 1)))
-        x += mains * np.sin(2 * np.pi * 50 * T + rng.uniform(0, 6.28, (4, 1)))
+        x[2:] += gain * (0.5 + 0.05 * len(s.shape) + 0.05 * rng.standard_normal((2, 1)))
+        pickup = mains * np.exp(0.3 * rng.standard_normal((4, 1)))  # a stroke's own pickup
+        x += pickup * np.sin(2 * np.pi * 50 * T + rng.uniform(0, 6.28, (4, 1)))
         rows.append(x.astype(np.float32))
     return np.stack(rows)
 

@@ -57,6 +57,10 @@ DEFAULT_TRIALS_PER_CLASS = 2
 #: then give some ten steps per epoch (sbi's default batch of 200 would give one, and
 #: its early stopping would end the training long before the flow fits).
 TRAINING_BATCH = 25
+#: Trainings of the posterior from different initialisations; the one with the best
+#: held-out loss (sbi's validation simulations) is kept. A flow trained on a few hundred
+#: simulations now and then stops near its start, a posterior as wide as the prior.
+RESTARTS = 3
 #: Posterior draws the report's intervals are read from.
 POSTERIOR_SAMPLES = 4000
 #: A parameter whose 90 % posterior interval covers more than this share of its range is
@@ -261,17 +265,23 @@ def train_posterior(
             f"--budget: only {int(rows.sum())} simulations are usable; at least 20 are "
             "needed to train the posterior (raise the budget)"
         )
-    torch.manual_seed(seed)
     d = unit.shape[1]
     prior = BoxUniform(torch.zeros(d), torch.ones(d))
-    inference = NPE(prior=prior, show_progress_bars=False, tracker=_NoTracker())
     theta = torch.as_tensor(unit[rows], dtype=torch.float32)
     xs = torch.as_tensor(x[rows][:, cols], dtype=torch.float32)
-    inference.append_simulations(theta, xs)
-    with contextlib.redirect_stdout(io.StringIO()):  # sbi prints its convergence
-        estimator = inference.train(
-            training_batch_size=TRAINING_BATCH, show_train_summary=False
-        )
+    best = None
+    for restart in range(RESTARTS):
+        torch.manual_seed(seed * RESTARTS + restart)
+        inference = NPE(prior=prior, show_progress_bars=False, tracker=_NoTracker())
+        inference.append_simulations(theta, xs)
+        with contextlib.redirect_stdout(io.StringIO()):  # sbi prints its convergence
+            estimator = inference.train(
+                training_batch_size=TRAINING_BATCH, show_train_summary=False
+            )
+        loss = float(inference._summary["best_validation_loss"][-1])
+        if best is None or loss < best[0]:
+            best = (loss, inference, estimator)
+    _, inference, estimator = best
     return Posterior(inference.build_posterior(estimator), np.flatnonzero(cols), int(rows.sum()))
 
 
