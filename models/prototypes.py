@@ -24,8 +24,25 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-#: Episodes adapted together (bounds memory for 36-way episodes with 386-d features).
+from tactile_synth.validation import check_int
+
+#: Episodes adapted together, at most (bounds memory for 36-way episodes with 386-d
+#: features).
 EPISODE_CHUNK = 512
+#: Support-embedding values (floats, episodes x support examples x D) an adapted head's
+#: chunk holds at most: every Adam step reads the chunk's support embeddings twice and
+#: rewrites its ``(E, N, D)`` weights and moments about twenty times, so a chunk that
+#: stays in the CPU's caches (8 MiB of support embeddings) costs less per episode than
+#: one streamed from memory on every step. Episodes never interact, so the chunking
+#: changes no prediction beyond the last bits of a vectorised kernel's tail.
+HEAD_FLOATS = 2**21
+
+
+def head_chunk(n_support: int, dim: int, *, cap: int = EPISODE_CHUNK) -> int:
+    """Episodes of ``n_support`` support embeddings of ``dim`` values adapted together:
+    at most ``cap``, and at most :data:`HEAD_FLOATS` support values in all (at least
+    one episode)."""
+    return max(1, min(cap, HEAD_FLOATS // max(1, n_support * dim)))
 
 
 def normalise(x: torch.Tensor) -> torch.Tensor:
@@ -59,8 +76,11 @@ def adapt_cosine_head(
     lr: float = 1.5e-3,
     lam: float = 0.10,
     alpha: float = 10.0,
+    chunk: int | None = None,
 ) -> np.ndarray:
     """AFOP-ML's adapted cosine-softmax head: predictions ``(E, M)``.
+
+    ``chunk``: episodes adapted together (None: :func:`head_chunk`, cache-sized).
 
     The loss's gradient is written out (no autograd graph per step) and Adam is applied
     to ``W`` and ``b`` of all episodes at once; with ``(E, S, N)`` logits ``z``,
@@ -74,10 +94,13 @@ def adapt_cosine_head(
     n_support = n_way * k_shot
     onehot = torch.eye(n_way).repeat_interleave(k_shot, dim=0)  # (S, N), class-major rows
     beta1, beta2, eps = 0.9, 0.999, 1e-8
+    step_e = (
+        head_chunk(n_support, f.shape[1]) if chunk is None else check_int("chunk", chunk, minimum=1)
+    )
     with torch.no_grad():
-        for start in range(0, e_total, EPISODE_CHUNK):
-            s = support[start : start + EPISODE_CHUNK]
-            q = query[start : start + EPISODE_CHUNK]
+        for start in range(0, e_total, step_e):
+            s = support[start : start + step_e]
+            q = query[start : start + step_e]
             e = s.shape[0]
             xs = normalise(f[torch.as_tensor(s)].reshape(e, n_support, -1))  # (E, S, D)
             w = normalise(prototypes(f, s))  # (E, N, D)

@@ -179,3 +179,49 @@ def test_single_episode_latency_prepares_every_timed_episode_anew():
     batch = sample_episodes(labels, n_way=3, k_shot=1, n_query=2, episodes=5, seed=0)
     single_episode_latency(model, signals, batch, np.zeros((labels.size, 3)), 4)
     assert model.prepared == 1 + 2 * 4  # the untimed call, then every timed one
+
+
+def _overlapping_pool(n_classes: int = 12, per_class: int = 12, dim: int = 48):
+    # Classes whose means differ by about their spread: adapted heads score well above
+    # chance and well below 100 %, so a mixed-up episode would show in its accuracy.
+    rng = np.random.default_rng(7)
+    means = rng.standard_normal((n_classes, dim))
+    labels = np.repeat(np.arange(n_classes), per_class)
+    x = means[labels] + 2.5 * rng.standard_normal((labels.size, dim))
+    return x.astype(np.float32), labels
+
+
+@pytest.mark.parametrize(("way", "shot"), [(5, 1), (12, 5)])
+def test_the_head_adapted_in_chunks_labels_each_episode_as_adapted_alone(way, shot):
+    # Episodes never interact: adapting them in cache-sized chunks of many episodes gives
+    # each episode the predictions it gets adapted on its own.
+    x, labels = _overlapping_pool()
+    batch = sample_episodes(labels, n_way=way, k_shot=shot, n_query=4, episodes=24, seed=3)
+    kw = dict(steps=60, lr=1.5e-3, lam=0.1, alpha=10.0)
+    together = adapt_cosine_head(x, batch.support, batch.query, **kw, chunk=16)
+    default = adapt_cosine_head(x, batch.support, batch.query, **kw)
+    alone = np.concatenate(
+        [
+            adapt_cosine_head(x, batch.support[e : e + 1], batch.query[e : e + 1], **kw)
+            for e in range(batch.episodes)
+        ]
+    )
+    acc = (alone == batch.query_labels).mean(axis=1)
+    assert 0.3 < acc.mean() < 0.95  # the episodes are neither trivial nor hopeless
+    for pred in (together, default):
+        # Float tolerance: a vectorised kernel may round an episode's last bits otherwise
+        # when it sits elsewhere in a chunk; at most one query in a hundred may flip.
+        assert np.mean(pred != alone) <= 0.01
+        assert np.abs((pred == batch.query_labels).mean(axis=1) - acc).max() <= 0.25
+
+
+def test_head_chunk_holds_the_cache_budget_and_refuses_a_bad_chunk():
+    from models.prototypes import EPISODE_CHUNK, HEAD_FLOATS, head_chunk
+
+    assert head_chunk(180, 386) == HEAD_FLOATS // (180 * 386) < EPISODE_CHUNK
+    assert head_chunk(5, 8) == EPISODE_CHUNK
+    assert head_chunk(10**6, 386) == 1
+    x, labels = _overlapping_pool()
+    batch = sample_episodes(labels, n_way=5, k_shot=1, n_query=2, episodes=2, seed=0)
+    with pytest.raises(ValueError, match="chunk"):
+        adapt_cosine_head(x, batch.support, batch.query, chunk=0)

@@ -284,3 +284,9 @@ def test_embedding_probe_prints_each_methods_row_and_refuses_one_without_embeddi
     cells = row.strip("|").split("|")
     assert len(cells) == 5
     assert float(cells[3].split()[0]) > 0.9, row  # the synthetic materials are separable
+
+
+def test_bench_methods_refuses_a_negative_latency_count_naming_it(monkeypatch, capsys):
+    main = _script("bench_methods", monkeypatch).main
+    err = _fails(main, ["--data", "unused", "--latency", "-1"], capsys)
+    assert "error: --latency must be >= 0; got -1" in err
