@@ -65,7 +65,7 @@ RESTARTS = 3
 POSTERIOR_SAMPLES = 4000
 #: A parameter whose 90 % posterior interval covers more than this share of its range is
 #: reported as not pinned down by the recordings (the prior's own covers 0.9).
-FLAT_SHARE = 0.75
+FLAT_SHARE = 2 / 3
 STATE_FILE, SIMULATIONS_FILE = "state.json", "simulations.npz"
 
 
