@@ -184,9 +184,7 @@ def test_calibrate_recovers_hidden_parameters_of_the_stand_in_and_writes_its_out
 def test_a_parameter_the_summaries_do_not_see_is_reported_flat(tmp_path, fake_physics):
     rec = _recordings(tmp_path, gain=2000.0)  # the default gain: the twin's, as it is not fitted
     params = parse_parameters(["acquisition.mains_v", "variability.yaw_rad"])
-    result = cal.calibrate(
-        rec, tmp_path / "twin", parameters=params, budget=200, progress=False
-    )
+    result = cal.calibrate(rec, tmp_path / "twin", parameters=params, budget=200, progress=False)
     found = {e.name: e for e in result.estimates}
 
     def width(e):
