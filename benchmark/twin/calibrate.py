@@ -37,6 +37,7 @@ import numpy as np
 from synth.calibration.parameters import PARAMETERS, Parameter
 from synth.calibration.settings import CalibrationError
 
+from .result import Calibration, Estimate
 from .world import World, simulate, summary_size, world_of
 
 #: The parameters a calibration fits unless ``--parameters`` names others: the films'
@@ -307,22 +308,6 @@ class _NoTracker:
         pass
 
 
-@dataclasses.dataclass(frozen=True)
-class Estimate:
-    """One parameter's posterior: median and the 5-95 % interval, physical units."""
-
-    name: str
-    median: float
-    low: float
-    high: float
-    prior_low: float
-    prior_high: float
-    flat: bool
-
-    def as_dict(self) -> dict[str, Any]:
-        return dataclasses.asdict(self)
-
-
 def estimates(parameters: Sequence[Parameter], samples: np.ndarray) -> list[Estimate]:
     out = []
     for j, p in enumerate(parameters):
@@ -342,20 +327,6 @@ def estimates(parameters: Sequence[Parameter], samples: np.ndarray) -> list[Esti
 
 
 # -- the command ----------------------------------------------------------------------------
-@dataclasses.dataclass
-class Calibration:
-    """What :func:`calibrate` found and wrote."""
-
-    out: Path
-    parameters: list[Parameter]
-    estimates: list[Estimate]
-    samples: np.ndarray
-    n_simulations: int
-    n_failed: int
-    world: World
-    x_obs: np.ndarray
-
-
 def _state(
     recordings: Any, parameters: Sequence[Parameter], trials_per_class: int, seed: int
 ) -> dict:

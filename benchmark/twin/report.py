@@ -15,7 +15,7 @@ from synth.calibration.finger_file import write_finger
 from synth.trial import CHANNELS, SAMPLE_RATE_HZ
 
 if TYPE_CHECKING:
-    from .calibrate import Calibration
+    from .result import Calibration
 
 FIGURE = "recordings_vs_twin.png"
 
