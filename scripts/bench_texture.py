@@ -15,11 +15,12 @@ the slowest to the fastest speed on every material. Then the same band's RMS of 
 texture's push on the skin (the tangential force ``-slope * F_n`` the simulated contact
 feels, ``Trial.truth["texture_push_n"]``) on the same segments, and the films' RMS per
 unit of it: the input the surface gives and what the finger's mechanics make of it.
-``--set SECTION.FIELD=VALUE`` measures another configuration (as ``calibrate.py whatif``),
-at the films' post-gain ``calibrate.py gain`` sizes for it unless ``--set
-pvdf.post_gain=G`` holds one. ``--texture wood.correlation_length_m=50e-6`` measures a
-material with another value of its random roughness (``roughness_rms_m`` or
-``correlation_length_m``), e.g. a free choice at either end of its plausible range.
+``--set SECTION.FIELD=VALUE`` measures another configuration (as
+``tactile-synth calibrate --whatif``), at the films' post-gain ``scripts/calibrate.py
+gain`` sizes for it unless ``--set pvdf.post_gain=G`` holds one.
+``--texture wood.correlation_length_m=50e-6`` measures a material with another value
+of its random roughness (``roughness_rms_m`` or ``correlation_length_m``), e.g. a free
+choice at either end of its plausible range.
 
     python3 scripts/bench_texture.py --transfer [40 70 100 170 250] [--seeds 3]
 
@@ -203,7 +204,7 @@ def main(argv: list[str] | None = None) -> int:
         "--set",
         action="append",
         metavar="SECTION.FIELD=VALUE",
-        help="measure another configuration (as scripts/calibrate.py whatif --set)",
+        help="measure another configuration (as tactile-synth calibrate --whatif --set)",
     )
     parser.add_argument(
         "--texture",

@@ -44,7 +44,7 @@ class FrictionLaw:
     #: for silicone on these surfaces; 1 mm/s is the order of a contact-renewal length of a
     #: few micrometres over the millisecond relaxation time of a soft elastomer, well
     #: below the 6-14 mm/s sliding speeds, so sliding itself runs at the kinetic level.
-    #: A free choice; ``scripts/calibrate.py sweep`` measures 0.3-3 mm/s for every
+    #: A free choice; ``tactile-synth calibrate --sweep`` measures 0.3-3 mm/s for every
     #: material at once (``materials.stribeck_velocity_m_s``).
     stribeck_velocity_m_s: float = 1.0e-3
     #: Exponent of the load dependence: -0.21 measured for a finger pad over 1-20 N (Seo
@@ -155,7 +155,7 @@ MATERIALS: dict[str, Material] = {
     # fibres: not measured as such, plausible 50-200 um); the growth rings a slow relief
     # of a few um every 2-5 mm (ring widths 2-8 mm: Adamopoulos et al. 2009, Eur. J.
     # Wood Prod. 67; its depth, 4 um, is a free choice within the waviness of a few um,
-    # 2-6 um; ``scripts/calibrate.py sweep`` measures both ends).
+    # 2-6 um; ``tactile-synth calibrate --sweep`` measures both ends).
     "wood": Material(
         name="wood",
         friction=SILICONE_FRICTION,
