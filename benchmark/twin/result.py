@@ -35,7 +35,7 @@ class Estimate:
 
 @dataclasses.dataclass
 class Calibration:
-    """What :func:`calibrate` found and wrote."""
+    """What :func:`benchmark.twin.calibrate.calibrate` found and wrote."""
 
     out: Path
     parameters: list[Parameter]
