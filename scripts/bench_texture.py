@@ -45,8 +45,11 @@ from scipy import signal
 
 import shapes
 import synth
+from synth import tribology
 from synth.calibration.settings import with_value
+from synth.contact import friction_coefficient
 from synth.trial import SAMPLE_RATE_HZ, TrialSpec
+from synth.tribology import with_friction_model
 from tactile_synth.validation import int_arg, parse_number
 
 BAND_HZ = (20.0, 400.0)
@@ -185,6 +188,61 @@ def with_texture(config: synth.SynthConfig, items: list[str]) -> synth.SynthConf
     return config
 
 
+def print_friction(config: synth.SynthConfig, speeds: list[float], force_n: float) -> None:
+    """Each material's sliding coefficient under ``config``'s law at every speed, and for
+    the derived model its hysteresis and adhesive parts and real contact fraction."""
+    print(f"kinetic friction at {force_n:g} N (the law's coefficient at each speed)")
+    print("material    " + "".join(f"{v:>9g} mm/s" for v in speeds))
+    for name in synth.MATERIAL_NAMES:
+        law = config.materials[name].friction
+        mus = [float(friction_coefficient(law, v * 1e-3, force_n)) for v in speeds]
+        print(f"{name:<12}" + "".join(f"{m:>14.3f}" for m in mus))
+    for name in synth.MATERIAL_NAMES:
+        mat = config.materials[name]
+        if mat.friction.velocity_exponent == 0.0:
+            continue
+        f = tribology.friction(
+            mat.texture,
+            config.finger,
+            tribology.SILICONE_TRIBOLOGY,
+            speed_m_s=tribology.REFERENCE_SPEED_M_S,
+            force_n=force_n,
+        )
+        print(
+            f"  {name}: hysteresis {f.hysteresis:.4f} + adhesion {f.adhesion:.4f} at 10 mm/s, "
+            f"real contact {100 * f.contact_fraction:.1f} % of the nominal area"
+        )
+
+
+def report(config: synth.SynthConfig, speeds: list[float], args: argparse.Namespace) -> dict:
+    """Measure and print the materials' table under ``config``; returns it."""
+    table, push = measure(config, speeds, args.seeds, args.force, args.margin_mm * 1e-3)
+    print(f"films' {BAND_HZ[0]:g}-{BAND_HZ[1]:g} Hz RMS (mV) on the square's steady top, ")
+    print(f"{args.force:g} N, mean of 2 films x {args.seeds} seeds")
+    print("material    " + "".join(f"{v:>9g} mm/s" for v in speeds))
+    for m in synth.MATERIAL_NAMES:
+        print(f"{m:<12}" + "".join(f"{table[m][v] * 1e3:>14.3f}" for v in speeds))
+    ref = 10.0 if 10.0 in speeds else speeds[len(speeds) // 2]
+    ratio = table["wood"][ref] / table["aluminum"][ref]
+    rising = {m: table[m][speeds[-1]] > table[m][speeds[0]] for m in synth.MATERIAL_NAMES}
+    print(f"wood / aluminium at {ref:g} mm/s: {ratio:.2f} (target >= 3)")
+    print(
+        f"rises from {speeds[0]:g} to {speeds[-1]:g} mm/s: "
+        + ", ".join(f"{m} {'yes' if r else 'NO'}" for m, r in rising.items())
+    )
+    print(f"texture push on the skin, {BAND_HZ[0]:g}-{BAND_HZ[1]:g} Hz RMS (mN), same segments")
+    print("material    " + "".join(f"{v:>9g} mm/s" for v in speeds))
+    for m in synth.MATERIAL_NAMES:
+        print(f"{m:<12}" + "".join(f"{push[m][v] * 1e3:>14.3f}" for v in speeds))
+    print("films per unit of push (mV/mN)")
+    for m in synth.MATERIAL_NAMES:
+        print(f"{m:<12}" + "".join(f"{table[m][v] / push[m][v]:>14.3f}" for v in speeds))
+    return {
+        "films_v": {m: {str(v): r for v, r in by.items()} for m, by in table.items()},
+        "push_n": {m: {str(v): r for v, r in by.items()} for m, by in push.items()},
+    }
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int_arg, default=3)
@@ -192,6 +250,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--force", type=float, default=1.0)
     parser.add_argument("--margin-mm", type=float, default=3.0)
     parser.add_argument("--json", help="also write the table to this JSON file")
+    parser.add_argument(
+        "--friction-model",
+        choices=("shared", "derived", "both"),
+        default="both",
+        help="the materials' friction: the shared silicone law, the laws derived from "
+        "each surface's roughness (synth.tribology), or both side by side (default)",
+    )
     parser.add_argument(
         "--transfer",
         type=float,
@@ -255,36 +320,18 @@ def main(argv: list[str] | None = None) -> int:
                 json.dump({str(f): {"films_v": a, "push_n": b} for f, (a, b) in res.items()}, fh)
         return 0
     speeds = sorted(args.speeds)
-    table, push = measure(config, speeds, args.seeds, args.force, args.margin_mm * 1e-3)
-    print(f"films' {BAND_HZ[0]:g}-{BAND_HZ[1]:g} Hz RMS (mV) on the square's steady top, ")
-    print(f"{args.force:g} N, mean of 2 films x {args.seeds} seeds")
-    print("material    " + "".join(f"{v:>9g} mm/s" for v in speeds))
-    for m in synth.MATERIAL_NAMES:
-        print(f"{m:<12}" + "".join(f"{table[m][v] * 1e3:>14.3f}" for v in speeds))
-    ref = 10.0 if 10.0 in speeds else speeds[len(speeds) // 2]
-    ratio = table["wood"][ref] / table["aluminum"][ref]
-    rising = {m: table[m][speeds[-1]] > table[m][speeds[0]] for m in synth.MATERIAL_NAMES}
-    print(f"wood / aluminium at {ref:g} mm/s: {ratio:.2f} (target >= 3)")
-    print(
-        f"rises from {speeds[0]:g} to {speeds[-1]:g} mm/s: "
-        + ", ".join(f"{m} {'yes' if r else 'NO'}" for m, r in rising.items())
-    )
-    print(f"texture push on the skin, {BAND_HZ[0]:g}-{BAND_HZ[1]:g} Hz RMS (mN), same segments")
-    print("material    " + "".join(f"{v:>9g} mm/s" for v in speeds))
-    for m in synth.MATERIAL_NAMES:
-        print(f"{m:<12}" + "".join(f"{push[m][v] * 1e3:>14.3f}" for v in speeds))
-    print("films per unit of push (mV/mN)")
-    for m in synth.MATERIAL_NAMES:
-        print(f"{m:<12}" + "".join(f"{table[m][v] / push[m][v]:>14.3f}" for v in speeds))
+    models = ("shared", "derived") if args.friction_model == "both" else (args.friction_model,)
+    results = {}
+    for model in models:
+        cfg = dataclasses.replace(
+            config, materials=with_friction_model(config.materials, config.finger, model)
+        )
+        print(f"== friction model: {model}")
+        print_friction(cfg, speeds, args.force)
+        results[model] = report(cfg, speeds, args)
     if args.json:
         with open(args.json, "w") as fh:
-            json.dump(
-                {
-                    "films_v": {m: {str(v): r for v, r in by.items()} for m, by in table.items()},
-                    "push_n": {m: {str(v): r for v, r in by.items()} for m, by in push.items()},
-                },
-                fh,
-            )
+            json.dump(results, fh)
     return 0
 
 

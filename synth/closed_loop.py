@@ -182,6 +182,8 @@ class ClosedLoop:
         self.static_excess = np.array([t.friction.static for t in self.trials]) - self.kinetic
         self.v_stribeck = np.array([t.friction.stribeck_velocity_m_s for t in self.trials])
         self.load_exp = np.array([t.friction.load_exponent for t in self.trials])
+        self.vel_exp = np.array([t.friction.velocity_exponent for t in self.trials])
+        self.v_ref = np.array([t.friction.reference_speed_m_s for t in self.trials])
         self.scale = np.array([t.friction_scale for t in self.trials])
         self.dir = np.array([t.direction for t in self.trials])  # (b, 2)
         self.texture = texture_mod.texture_table(
@@ -221,6 +223,8 @@ class ClosedLoop:
             self.static_excess,
             self.v_stribeck,
             self.load_exp,
+            self.vel_exp,
+            self.v_ref,
             self.scale,
             out,
         )

@@ -81,7 +81,11 @@ def friction_coefficient(law: FrictionLaw, slip_speed_m_s, normal_force_n, scale
     (the stroke's scatter factor)."""
     v = np.abs(np.asarray(slip_speed_m_s, dtype=float))
     f = np.maximum(np.asarray(normal_force_n, dtype=float), 0.05)  # bounded at light touch
-    stribeck = law.kinetic + (law.static - law.kinetic) * kernels.exp(
+    kinetic = law.kinetic
+    if law.velocity_exponent != 0.0:
+        v_kin = np.maximum(v, law.stribeck_velocity_m_s) / law.reference_speed_m_s
+        kinetic = kinetic * kernels.power(v_kin, law.velocity_exponent)
+    stribeck = kinetic + (law.static - law.kinetic) * kernels.exp(
         -((v / law.stribeck_velocity_m_s) ** 2)
     )
     return stribeck * kernels.power(f, law.load_exponent) * scale

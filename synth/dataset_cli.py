@@ -48,6 +48,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="a finger file (the one `tactile-synth calibrate` writes): its global "
         "parameters set on the grid's simulator configuration",
     )
+    p.add_argument(
+        "--friction-model",
+        choices=("shared", "derived"),
+        help="the skin's friction on each material: 'shared' keeps the configured laws "
+        "(the paper's materials share one measured silicone law), 'derived' derives each "
+        "material's from its surface roughness and the skin's viscoelasticity "
+        "(docs/friction.md); default: the configured laws",
+    )
     p.add_argument("--shapes", nargs="+", metavar="NAME")
     p.add_argument("--materials", nargs="+", metavar="NAME")
     p.add_argument("--trials-per-class", type=int_arg, metavar="N")
@@ -186,7 +194,9 @@ def config_from_args(args: argparse.Namespace) -> Any:
     elif args.from_config:
         config = store.stored_config(args.from_config)
     elif resume:
-        if not overrides and not getattr(args, "finger", None):
+        if not overrides and not (
+            getattr(args, "finger", None) or getattr(args, "friction_model", None)
+        ):
             return None  # the stored grid (of the dataset, or of its unfinished replacement)
         from .generation import check_resume_target
 
@@ -198,6 +208,8 @@ def config_from_args(args: argparse.Namespace) -> Any:
         config = preset("paper")
     if getattr(args, "finger", None):
         config = with_finger(config, args.finger)
+    if getattr(args, "friction_model", None):
+        config = with_friction_model(config, args.friction_model)
     if not overrides:
         return config
     try:
@@ -214,6 +226,20 @@ def with_finger(config: Any, path: str, arg: str = "--finger") -> Any:
 
     synth = SynthConfig.from_dict(dict(config.synth)) if config.synth else SynthConfig()
     return config.replace(synth=apply_finger(synth, path, arg=arg).to_dict())
+
+
+def with_friction_model(config: Any, model: str) -> Any:
+    """The grid ``config`` with its materials' friction laws under ``model``
+    (:func:`synth.tribology.with_friction_model`), from its simulator configuration's
+    finger (the defaults where the grid holds none)."""
+    import dataclasses
+
+    from .config import SynthConfig
+    from .tribology import with_friction_model as under
+
+    synth = SynthConfig.from_dict(dict(config.synth)) if config.synth else SynthConfig()
+    materials = under(synth.materials, synth.finger, model)
+    return config.replace(synth=dataclasses.replace(synth, materials=materials).to_dict())
 
 
 def _as_typed(message: str, overrides: dict[str, Any]) -> str:

@@ -92,15 +92,22 @@ def cbrt(x):
 
 
 @numba.njit(cache=True, nogil=True)
-def friction_law(slip_speed, normal, kinetic, static_excess, v_stribeck, load_exp, scale, out):
+def friction_law(
+    slip_speed, normal, kinetic, static_excess, v_stribeck, load_exp, vel_exp, v_ref, scale, out
+):
     """Each trial's friction coefficient (:meth:`synth.closed_loop.ClosedLoop.friction`)
-    into ``out``: ``(kinetic + static_excess * exp(-(slip_speed / v_stribeck)**2)) *
-    max(normal, 0.05)**load_exp * scale``."""
+    into ``out``: ``(kinetic * r + static_excess * exp(-(slip_speed / v_stribeck)**2)) *
+    max(normal, 0.05)**load_exp * scale``, with ``r = (max(slip_speed, v_stribeck) /
+    v_ref)**vel_exp`` (exactly 1 where ``vel_exp`` is 0)."""
     for i in range(out.size):
         f = normal[i] if not normal[i] < 0.05 else 0.05  # NaN stays NaN, as np.maximum
         ratio = slip_speed[i] / v_stribeck[i]
         weak = math.exp(-(ratio * ratio))
-        out[i] = (kinetic[i] + static_excess[i] * weak) * f ** load_exp[i] * scale[i]
+        kin = kinetic[i]
+        if vel_exp[i] != 0.0:
+            v = slip_speed[i] if slip_speed[i] > v_stribeck[i] else v_stribeck[i]
+            kin = kin * (v / v_ref[i]) ** vel_exp[i]
+        out[i] = (kin + static_excess[i] * weak) * f ** load_exp[i] * scale[i]
 
 
 @intrinsic

@@ -27,11 +27,13 @@ MATERIAL_NAMES: tuple[str, ...] = ("resin", "wood", "aluminum")
 class FrictionLaw:
     """Skin-on-surface friction coefficient as elastomers show it.
 
-    ``mu(v, F) = (kinetic + (static - kinetic) * exp(-(v / stribeck_velocity_m_s)^2))
-    * (F / 1 N)^load_exponent``: the static coefficient holds at rest and decays to the
-    kinetic one within a few ``stribeck_velocity_m_s`` of slip (a Stribeck-type
-    velocity-weakening law), and a soft Hertzian contact's coefficient falls with load
-    (a constant interfacial shear strength over a contact area growing as ``F^(2/3)``).
+    ``mu(v, F) = (kinetic * r(v) + (static - kinetic) * exp(-(v / stribeck_velocity_m_s)^2))
+    * (F / 1 N)^load_exponent`` with ``r(v) = (max(v, stribeck_velocity_m_s) /
+    reference_speed_m_s)^velocity_exponent`` (1 for the rate-independent law): the
+    static coefficient holds at rest and decays to the kinetic one within a few
+    ``stribeck_velocity_m_s`` of slip (a Stribeck-type velocity-weakening law), and a
+    soft Hertzian contact's coefficient falls with load (a constant interfacial shear
+    strength over a contact area growing as ``F^(2/3)``).
     Velocity weakening of this kind is what lets stick-slip arise in the simulation.
     """
 
@@ -51,9 +53,20 @@ class FrictionLaw:
     #: et al. 2009, Ergonomics 52: coefficient down 46 % from 1 to 20 N); Hertz with a
     #: constant interfacial shear strength gives -1/3.
     load_exponent: float = -0.21
+    #: Exponent of the kinetic coefficient's speed dependence, ``(v / reference_speed_m_s)
+    #: ^ velocity_exponent`` (slip speeds below the Stribeck speed count as it): 0 for a
+    #: rate-independent law (the shared silicone law); the derived laws
+    #: (:func:`synth.tribology.derived_law`) take it from the skin's viscoelasticity.
+    velocity_exponent: float = 0.0
+    #: Speed at which ``kinetic`` holds when ``velocity_exponent`` is not 0.
+    reference_speed_m_s: float = 0.010
 
     def __post_init__(self) -> None:
-        params.positive(self, "kinetic", "static", "stribeck_velocity_m_s")
+        params.positive(self, "kinetic", "static", "stribeck_velocity_m_s", "reference_speed_m_s")
+        if not -1.0 <= params._value(self, "velocity_exponent") <= 1.0:
+            raise ValueError(
+                f"FrictionLaw.velocity_exponent must lie in -1..1; got {self.velocity_exponent!r}"
+            )
         params.below(self, "static", 3.0, "a skin-on-solid coefficient")
         if self.static < self.kinetic:
             raise ValueError(

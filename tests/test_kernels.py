@@ -494,12 +494,25 @@ def test_the_compiled_friction_law_and_layer_position_give_their_numpy_forms_bit
     kinetic, excess = rng.uniform(0.3, 1.0, b), rng.uniform(0.0, 0.5, b)
     v_stribeck, load_exp = rng.uniform(1e-3, 1e-2, b), rng.uniform(-0.3, 0.0, b)
     scale = rng.uniform(0.8, 1.2, b)
+    vel_exp = np.where(np.arange(b) % 2, rng.uniform(-0.2, 0.2, b), 0.0)
+    v_ref = np.full(b, 0.01)
     out = np.empty(b)
-    kernels.friction_law(slip, normal, kinetic, excess, v_stribeck, load_exp, scale, out)
+    kernels.friction_law(
+        slip, normal, kinetic, excess, v_stribeck, load_exp, vel_exp, v_ref, scale, out
+    )
     f = np.maximum(normal, 0.05)
     weak = kernels.exp(-np.square(slip / v_stribeck))
-    want = (kinetic + excess * weak) * kernels.power(f, load_exp) * scale
+    rate = np.where(
+        vel_exp != 0.0, kernels.power(np.maximum(slip, v_stribeck) / v_ref, vel_exp), 1.0
+    )
+    want = (kinetic * rate + excess * weak) * kernels.power(f, load_exp) * scale
     assert np.array_equal(out, want)
+    # A rate-independent law gives the same bits as before the rate term existed.
+    flat = np.empty(b)
+    kernels.friction_law(
+        slip, normal, kinetic, excess, v_stribeck, load_exp, 0.0 * vel_exp, v_ref, scale, flat
+    )
+    assert np.array_equal(flat, (kinetic + excess * weak) * kernels.power(f, load_exp) * scale)
 
     first = rng.uniform(0.3, 0.8, b)
     load = np.concatenate([[0.0, 1e-12, 100.0], rng.uniform(0.0, 4.0, b - 3)])
@@ -533,7 +546,8 @@ first = rng.uniform(0.3, 0.8, n)
 law = synth.materials.MATERIALS["wood"].friction
 loop = types.SimpleNamespace(
     b=n, kinetic=first, static_excess=first * 0.4, v_stribeck=first * 0.01,
-    load_exp=-first * 0.2, scale=1.0 + first * 0.1,
+    load_exp=-first * 0.2, vel_exp=np.zeros(n), v_ref=np.full(n, 0.01),
+    scale=1.0 + first * 0.1,
 )
 outline = synth.pieces.outline_pieces("moon")
 for out in (
