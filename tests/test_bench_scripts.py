@@ -164,14 +164,17 @@ def test_bench_texture_reports_the_films_and_the_push_they_read(monkeypatch, tmp
     assert main(["--seeds", "1", "--speeds", "10", "--json", str(out)]) == 0
     import json
 
-    table = json.loads(out.read_text())
-    assert set(table) == {"films_v", "push_n"}
-    for name in ("films_v", "push_n"):
-        assert set(table[name]) == {"resin", "wood", "aluminum"}
-        assert all(v["10.0"] > 0 for v in table[name].values())
-    assert table["push_n"]["wood"]["10.0"] > 1.5 * table["push_n"]["aluminum"]["10.0"]
+    tables = json.loads(out.read_text())
+    assert set(tables) == {"shared", "derived"}  # both friction models, side by side
+    for table in tables.values():
+        assert set(table) == {"films_v", "push_n"}
+        for name in ("films_v", "push_n"):
+            assert set(table[name]) == {"resin", "wood", "aluminum"}
+            assert all(v["10.0"] > 0 for v in table[name].values())
+        assert table["push_n"]["wood"]["10.0"] > 1.5 * table["push_n"]["aluminum"]["10.0"]
     printed = capsys.readouterr().out
     assert "texture push on the skin" in printed and "films per unit of push" in printed
+    assert "== friction model: derived" in printed and "hysteresis" in printed
 
 
 @pytest.mark.parametrize(
