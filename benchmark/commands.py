@@ -272,6 +272,7 @@ def _diagnose(args: argparse.Namespace) -> int:
 
     from .diagnose import MARKDOWN_NAME, run_diagnose, summary_table
     from .diagnose.steady import check_edge_gap
+    from .diagnose.text import friction_lines
 
     check_edge_gap(args.edge_gap_s, "--edge-gap-s")
     start = time.perf_counter()
@@ -285,6 +286,8 @@ def _diagnose(args: argparse.Namespace) -> int:
         ),
     )
     print(summary_table(diag))
+    for line in friction_lines(args.data):
+        print(line)
     seconds = time.perf_counter() - start
     if args.out:
         print(f"wrote {args.out}/{MARKDOWN_NAME}, JSON, curves and figures in {seconds:.1f} s")

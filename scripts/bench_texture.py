@@ -1,6 +1,7 @@
 """What the films read of a material's texture while the finger slides steadily.
 
     python3 scripts/bench_texture.py [--seeds 3] [--speeds 6 10 14] [--force 1.0]
+                                     [--friction-model shared|derived|both]
                                      [--set SECTION.FIELD=VALUE ...]
                                      [--texture MATERIAL.FIELD=VALUE ...]
 

@@ -12,6 +12,8 @@ law on the surface (:class:`~synth.materials.FrictionLaw`) and the surface textu
     static = 1.38                       # coefficient at rest, >= kinetic
     stribeck_velocity_m_s = 1e-3        # optional (FrictionLaw's default)
     load_exponent = -0.21               # optional (FrictionLaw's default)
+    velocity_exponent = 0.0             # optional: mu ~ (v / reference_speed_m_s)^this
+    reference_speed_m_s = 0.010         # optional (FrictionLaw's default)
     [material.texture]
     roughness_rms_m = 20e-6
     correlation_length_m = 200e-6
@@ -62,11 +64,27 @@ LIBRARY_LABEL = f"synth/{LIBRARY_FILE}"
 
 #: Keys of a ``[[material]]`` table and of its sub-tables.
 MATERIAL_KEYS = ("name", "friction", "texture", "replace")
-FRICTION_KEYS = ("kinetic", "static", "stribeck_velocity_m_s", "load_exponent")
+FRICTION_KEYS = (
+    "kinetic",
+    "static",
+    "stribeck_velocity_m_s",
+    "load_exponent",
+    "velocity_exponent",
+    "reference_speed_m_s",
+)
 TEXTURE_KEYS = ("roughness_rms_m", "correlation_length_m", "periodic")
 PERIODIC_KEYS = ("wavelength_m", "amplitude_m")
 #: Keys with a default: FrictionLaw's own defaults; no periodic marks.
-OPTIONAL_KEYS = frozenset({"stribeck_velocity_m_s", "load_exponent", "periodic", "replace"})
+OPTIONAL_KEYS = frozenset(
+    {
+        "stribeck_velocity_m_s",
+        "load_exponent",
+        "velocity_exponent",
+        "reference_speed_m_s",
+        "periodic",
+        "replace",
+    }
+)
 
 
 @dataclass(frozen=True)
@@ -115,6 +133,18 @@ RANGES: dict[str, Bound] = {
     # with load is not an adhesive soft contact. FrictionLaw's own range.
     "friction.load_exponent": Bound(
         -1.0, 0.0, "-1..0", "a soft contact's coefficient falls with load, at most as 1/F"
+    ),
+    # 0 is the rate-independent law. An elastomer's sliding friction grows with speed
+    # below its peak by d ln mu / d ln v of a few tenths at most (Grosch 1963, Proc. R.
+    # Soc. A 274, 21: mu rises about fivefold over four decades of speed); half leaves a
+    # margin either way, and a falling coefficient is the stick-slip regime.
+    "friction.velocity_exponent": Bound(
+        -0.5, 0.5, "-0.5..0.5", "an elastomer's friction changes slowly with speed"
+    ),
+    # The speed the kinetic coefficient is quoted at: within the simulator's sliding
+    # speeds (up to 22 mm/s) and a decade below them.
+    "friction.reference_speed_m_s": Bound(
+        1e-4, 0.1, "1e-4..0.1 m/s", "a sliding speed the coefficient was measured at"
     ),
     # P120 sandpaper measures Rq ~53 um (the library's sandpaper_p120); 100 um leaves room
     # for coarser papers, and a rougher relief is one a fingertip catches on rather than

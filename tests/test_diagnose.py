@@ -391,3 +391,31 @@ def test_steady_stretches_keep_clear_of_the_edges_and_score_the_material():
     for bad in (-0.1, 0.95, float("nan")):
         with pytest.raises(ValueError, match=r"^edge_gap_s must lie in 0..0.9 s"):
             steady.steady_diagnosis(np.array(signals), np.array(material), edge_gap_s=bad)
+
+
+def test_friction_lines_show_the_stored_laws_of_each_friction_model(tmp_path):
+    import synth
+    from benchmark.diagnose.text import friction_lines
+    from synth.contact import friction_coefficient
+    from synth.dataset_cli import with_friction_model
+
+    base = GenerationConfig(preset="custom", shapes=SHAPES4, trials_per_class=2)
+    rows = {}
+    for model in ("shared", "derived"):
+        config = with_friction_model(base, model)
+        store.create(tmp_path / model, config)
+        lines = friction_lines(str(tmp_path / model))
+        assert lines[0].startswith("skin friction per material")
+        laws = synth.SynthConfig.from_dict(dict(config.synth)).materials
+        rows[model] = {}
+        for line in lines[2:]:
+            name, mu, _, exponent = line.split()
+            law = laws[name].friction
+            assert float(mu) == pytest.approx(float(friction_coefficient(law, 0.01, 1.0)), abs=6e-4)
+            assert float(exponent) == pytest.approx(law.velocity_exponent, abs=6e-5)
+            rows[model][name] = float(mu)
+        assert set(rows[model]) == set(MATERIAL_NAMES)
+    assert len(set(rows["shared"].values())) == 1  # one law for every material
+    assert len(set(rows["derived"].values())) == 3  # one per surface
+    make_store(tmp_path / "built")  # signals without the simulator: no laws to show
+    assert friction_lines(str(tmp_path / "built")) == []

@@ -173,7 +173,8 @@ BAD = [
         "kinetic = 1.15",
         "kinetc = 1.15",
         "material 'cork': friction key must be one of kinetic, static, "
-        "stribeck_velocity_m_s, load_exponent; got 'kinetc' (did you mean 'kinetic'?)",
+        "stribeck_velocity_m_s, load_exponent, velocity_exponent, reference_speed_m_s; "
+        "got 'kinetc' (did you mean 'kinetic'?)",
     ),
     (
         "wavelength_m = 1e-3",

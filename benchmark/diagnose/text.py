@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
 
 from . import steady
 from .result import (
@@ -244,3 +245,38 @@ def markdown(diag: Diagnosis, figures: dict[str, str] | None = None) -> str:
         "number means: docs/diagnose.md in the tactile-synth repository.",
     ]
     return "\n".join(md) + "\n"
+
+
+def friction_lines(path: str | Path) -> list[str]:
+    """The skin's friction law on each material of the simulated dataset at ``path``, as
+    its stored configuration holds it: the kinetic coefficient at 10 mm/s and 1 N, its
+    change from 6 to 14 mm/s and the law's velocity exponent (``docs/friction.md``).
+    Empty for imported recordings, which carry no simulated friction."""
+    import synth
+    from synth.contact import friction_coefficient
+    from synth.store import KIND_IMPORTED, read_meta, store_kind, stored_config
+
+    if store_kind(read_meta(Path(path))) == KIND_IMPORTED:
+        return []
+    config = stored_config(path)
+    try:
+        sim = (
+            synth.SynthConfig.from_dict(dict(config.synth)) if config.synth else synth.SynthConfig()
+        )
+    except (TypeError, ValueError):
+        return []  # signals written without the simulator (a built test store): no laws
+    materials = [m for m in config.materials if m in sim.materials]
+    if not materials:
+        return []
+    width = max(10, *(len(m) for m in materials)) + 2
+    lines = [
+        "skin friction per material (the dataset's laws; docs/friction.md):",
+        f"  {'material':<{width}}{'mu 10 mm/s, 1 N':>16}{'14 / 6 mm/s':>13}{'v exponent':>12}",
+    ]
+    for name in materials:
+        law = sim.materials[name].friction
+        mu = [float(friction_coefficient(law, v, 1.0)) for v in (0.010, 0.006, 0.014)]
+        lines.append(
+            f"  {name:<{width}}{mu[0]:>16.3f}{mu[2] / mu[1]:>12.3f}x{law.velocity_exponent:>12.4f}"
+        )
+    return lines
