@@ -293,3 +293,32 @@ def test_bench_methods_refuses_a_negative_latency_count_naming_it(monkeypatch, c
     main = _script("bench_methods", monkeypatch).main
     err = _fails(main, ["--data", "unused", "--latency", "-1"], capsys)
     assert "error: --latency must be >= 0; got -1" in err
+
+
+def test_bench_friction_models_prints_both_models_side_by_side(monkeypatch, tmp_path, capsys):
+    module = _script("bench_friction_models", monkeypatch)
+    records = [
+        {"record": "accuracy", "way": 5, "shot": 1, "condition": None, "accuracy": 0.9},
+        {"record": "accuracy", "way": 5, "shot": 1, "condition": "f1s10", "accuracy": 0.8},
+    ]
+    assert module._accuracy(records, 5, 1) == 0.9
+    assert module._accuracy(records, 5, 1, "f1s10") == 0.8
+    with pytest.raises(KeyError, match="36-way 1-shot"):
+        module._accuracy(records, 36, 1)
+    import json
+
+    seen = []
+
+    def measure(out, model, perturbation):
+        seen.append((model, perturbation))
+        return {"generate_paper_s": None if model == "shared" else 61.0, "closed_D": 8}
+
+    monkeypatch.setattr(module, "measure", measure)
+    out = tmp_path / "table.json"
+    assert module.main(["--out", str(tmp_path / "fm"), "--json", str(out)]) == 0
+    assert seen == [("shared", False), ("derived", False)]
+    printed = capsys.readouterr().out.splitlines()
+    assert printed[0].split() == ["shared", "derived"]
+    assert printed[1].split()[-2:] == ["reused", "61.0"]
+    assert printed[2].split()[-2:] == ["8", "8"] and len(printed) == 3
+    assert json.loads(out.read_text())["derived"]["generate_paper_s"] == 61.0

@@ -1,0 +1,153 @@
+"""The measured friction law beside the derived one, on the paper's datasets.
+
+    python3 scripts/bench_friction_models.py [--out DIR] [--perturbation] [--json PATH]
+
+For each friction model (``shared``: one measured law for every material; ``derived``:
+each material's law from its surface, ``docs/friction.md``) it generates the paper
+preset into ``DIR/paper-MODEL`` (timed: wall seconds in this process), diagnoses it
+(leave-one-out 1-NN material accuracy from the strain gauges and from the films, on the
+whole window) and runs AFOP-ML's closed-set table (``benchmark closed-set --methods
+AFOP-ML``: its 5-way 1-shot and 36-way 1-shot rows, its chosen D and PVDF share). With
+``--perturbation`` it also generates the perturbation preset and runs the perturbation
+protocol for AFOP-ML (pooled and within-condition 5-way 1-shot accuracy and the chosen
+D). Prints one table, the two models side by side. A store already in ``DIR`` of the
+same configuration is reused (its generation time is then not measured).
+
+These numbers are consequences of the friction model, reported as they come: the model's
+inputs are fixed in ``synth.tribology`` and nothing here chooses them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import json
+import sys
+import time
+from pathlib import Path
+
+from benchmark.cli import main as cli
+from benchmark.diagnose import diagnose
+from synth import load_dataset, store
+
+MODELS = ("shared", "derived")
+#: The benchmark runs: AFOP-ML only, replacing an earlier result in the same place.
+AFOP = ("--methods", "AFOP-ML", "--overwrite")
+
+
+def _run(argv: list[str]) -> None:
+    """One ``tactile-synth`` command, its printed output kept quiet; a failure is raised."""
+    with contextlib.redirect_stdout(io.StringIO()) as out:
+        code = cli(argv)
+    if code != 0:
+        raise SystemExit(f"tactile-synth {' '.join(argv)} failed:\n{out.getvalue()}")
+
+
+def _generate(preset: str, model: str, path: Path) -> float | None:
+    """Generate ``preset`` under ``model`` at ``path``; wall seconds, or None when a
+    complete store is already there."""
+    if store.is_store(path):
+        done, _ = store.Store.open(path).status()
+        if done.all():
+            return None
+    start = time.perf_counter()
+    _run(["generate", "--preset", preset, "--friction-model", model, "--out", str(path)])
+    return time.perf_counter() - start
+
+
+def _records(path: Path) -> list[dict]:
+    return json.loads((path / "results.json").read_text())
+
+
+def _accuracy(records: list[dict], way: int, shot: int, condition=None) -> float:
+    for r in records:
+        if (
+            r["record"] == "accuracy"
+            and r["way"] == way
+            and r["shot"] == shot
+            and r.get("condition") == condition
+        ):
+            return float(r["accuracy"])
+    raise KeyError(f"no {way}-way {shot}-shot row (condition {condition!r})")
+
+
+def measure(out: Path, model: str, perturbation: bool) -> dict:
+    row: dict = {}
+    paper = out / f"paper-{model}"
+    row["generate_paper_s"] = _generate("paper", model, paper)
+    diag = diagnose(load_dataset(paper), source=str(paper))
+    row["material_1nn_sg"] = diag.accuracy["material"]["sg"]
+    row["material_1nn_pvdf"] = diag.accuracy["material"]["pvdf"]
+    closed = out / f"closed-{model}"
+    _run(["benchmark", "closed-set", "--data", str(paper), "--out", str(closed), *AFOP])
+    records = _records(closed)
+    row["closed_5w1s"] = _accuracy(records, 5, 1)
+    row["closed_36w1s"] = _accuracy(records, 36, 1)
+    selection = next(r for r in records if r["record"] == "selection")
+    row["closed_D"] = selection["D"]
+    row["closed_pvdf_share"] = selection["pvdf_share"]
+    if perturbation:
+        perturbed = out / f"perturbation-{model}"
+        row["generate_perturbation_s"] = _generate("perturbation", model, perturbed)
+        result = out / f"perturbation-result-{model}"
+        data = ["--data", str(paper), "--perturbed", str(perturbed), "--out", str(result)]
+        _run(["benchmark", "perturbation", *data, *AFOP])
+        records = _records(result)
+        row["perturbation_pooled_5w1s"] = _accuracy(records, 5, 1)
+        within = [
+            float(r["accuracy"])
+            for r in records
+            if r["record"] == "accuracy"
+            and r["way"] == 5
+            and r["shot"] == 1
+            and r.get("condition") is not None
+        ]
+        row["perturbation_within_5w1s_mean"] = sum(within) / len(within) if within else None
+        dims = [r["D"] for r in records if r["record"] == "selection"]
+        row["perturbation_D_median"] = sorted(dims)[len(dims) // 2] if dims else None
+    return row
+
+
+LABELS = {
+    "generate_paper_s": ("paper preset generated in (s)", "{:.1f}"),
+    "material_1nn_sg": ("material 1-NN, strain gauges", "{:.3f}"),
+    "material_1nn_pvdf": ("material 1-NN, films", "{:.3f}"),
+    "closed_5w1s": ("AFOP-ML closed set 5-way 1-shot", "{:.2%}"),
+    "closed_36w1s": ("AFOP-ML closed set 36-way 1-shot", "{:.2%}"),
+    "closed_D": ("AFOP-ML closed set chosen D", "{}"),
+    "closed_pvdf_share": ("AFOP-ML closed set PVDF share", "{:.3f}"),
+    "generate_perturbation_s": ("perturbation preset generated in (s)", "{:.1f}"),
+    "perturbation_pooled_5w1s": ("AFOP-ML perturbation pooled 5-way 1-shot", "{:.2%}"),
+    "perturbation_within_5w1s_mean": ("AFOP-ML perturbation within-condition mean", "{:.2%}"),
+    "perturbation_D_median": ("AFOP-ML perturbation median D", "{}"),
+}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--out", default="out/friction-models", help="stores and results")
+    parser.add_argument(
+        "--perturbation", action="store_true", help="also the perturbation protocol"
+    )
+    parser.add_argument("--json", help="also write the table to this JSON file")
+    args = parser.parse_args(argv)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = {}
+    for model in MODELS:
+        print(f"measuring the {model} friction model ...", file=sys.stderr, flush=True)
+        rows[model] = measure(out, model, args.perturbation)
+    print(f"{'':<44}{'shared':>12}{'derived':>12}")
+    for key, (label, form) in LABELS.items():
+        if key not in rows["shared"]:
+            continue
+        cells = ["reused" if rows[m][key] is None else form.format(rows[m][key]) for m in MODELS]
+        print(f"{label:<44}{cells[0]:>12}{cells[1]:>12}")
+    if args.json:
+        Path(args.json).write_text(json.dumps(rows, indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
