@@ -1,6 +1,7 @@
 """The measured friction law beside the derived one, on the paper's datasets.
 
     python3 scripts/bench_friction_models.py [--out DIR] [--perturbation] [--json PATH]
+    python3 scripts/bench_friction_models.py --sensitivity
 
 For each friction model (``shared``: one measured law for every material; ``derived``:
 each material's law from its surface, ``docs/friction.md``) it generates the paper
@@ -12,6 +13,11 @@ AFOP-ML``: its 5-way 1-shot and 36-way 1-shot rows, its chosen D and PVDF share)
 protocol for AFOP-ML (pooled and within-condition 5-way 1-shot accuracy and the chosen
 D). Prints one table, the two models side by side. A store already in ``DIR`` of the
 same configuration is reused (its generation time is then not measured).
+
+``--sensitivity`` simulates nothing: it prints the derived kinetic coefficient of each
+paper material at 10 mm/s and 1 N with each of the skin's three free inputs
+(``synth.tribology.SkinTribology``) moved to either end of a plausible range, the others
+as shipped, to show what the derived values hang on.
 
 These numbers are consequences of the friction model, reported as they come: the model's
 inputs are fixed in ``synth.tribology`` and nothing here chooses them.
@@ -109,6 +115,47 @@ def measure(out: Path, model: str, perturbation: bool) -> dict:
     return row
 
 
+#: The free inputs moved by ``--sensitivity``: (label, field, values).
+SENSITIVITY = (
+    ("interfacial shear stress (kPa)", "interfacial_shear_stress_pa", (20e3, 100e3, 200e3)),
+    ("Prony ratios (times shipped)", "prony", (0.5, 2.0)),
+    ("roughness cutoff (um)", "roughness_cutoff_m", (5e-6, 20e-6)),
+)
+
+
+def sensitivity() -> list[tuple[str, list[float]]]:
+    """``(label, [mu per paper material])`` as shipped, then per moved input."""
+    import dataclasses
+
+    import synth
+    from synth import tribology
+    from synth.materials import MATERIALS
+    from synth.viscoelastic import PronyTerm
+
+    finger = synth.SynthConfig().finger
+    base = tribology.SILICONE_TRIBOLOGY
+
+    def mus(skin: tribology.SkinTribology) -> list[float]:
+        return [
+            tribology.friction(
+                MATERIALS[m].texture, finger, skin, speed_m_s=0.010, force_n=1.0
+            ).total
+            for m in synth.MATERIAL_NAMES
+        ]
+
+    rows = [("as shipped", mus(base))]
+    for label, field, values in SENSITIVITY:
+        for v in values:
+            if field == "prony":
+                terms = tuple(PronyTerm(t.ratio * v, t.relaxation_time_s) for t in base.prony)
+                skin, shown = dataclasses.replace(base, prony=terms), f"x{v:g}"
+            else:
+                scale = 1e3 if field.endswith("_pa") else 1e-6
+                skin, shown = dataclasses.replace(base, **{field: v}), f"{v / scale:g}"
+            rows.append((f"{label} {shown}", mus(skin)))
+    return rows
+
+
 LABELS = {
     "generate_paper_s": ("paper preset generated in (s)", "{:.1f}"),
     "material_1nn_sg": ("material 1-NN, strain gauges", "{:.3f}"),
@@ -131,7 +178,20 @@ def main(argv: list[str] | None = None) -> int:
         "--perturbation", action="store_true", help="also the perturbation protocol"
     )
     parser.add_argument("--json", help="also write the table to this JSON file")
+    parser.add_argument(
+        "--sensitivity", action="store_true", help="the derived friction's free inputs"
+    )
     args = parser.parse_args(argv)
+    if args.sensitivity:
+        import synth
+
+        print(
+            f"{'derived kinetic friction, 10 mm/s, 1 N':<40}"
+            + "".join(f"{m:>10}" for m in synth.MATERIAL_NAMES)
+        )
+        for label, mu in sensitivity():
+            print(f"{label:<40}" + "".join(f"{x:>10.3f}" for x in mu))
+        return 0
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     rows = {}

@@ -322,3 +322,21 @@ def test_bench_friction_models_prints_both_models_side_by_side(monkeypatch, tmp_
     assert printed[1].split()[-2:] == ["reused", "61.0"]
     assert printed[2].split()[-2:] == ["8", "8"] and len(printed) == 3
     assert json.loads(out.read_text())["derived"]["generate_paper_s"] == 61.0
+
+
+def test_bench_friction_models_sensitivity_moves_each_free_input(monkeypatch, capsys):
+    import synth
+    from synth import tribology
+    from synth.materials import MATERIALS
+
+    module = _script("bench_friction_models", monkeypatch)
+    rows = dict(module.sensitivity())
+    finger = synth.SynthConfig().finger
+    shipped = [tribology.derived_law(MATERIALS[m], finger).kinetic for m in synth.MATERIAL_NAMES]
+    assert rows.pop("as shipped") == pytest.approx(shipped, abs=1e-4)
+    assert len(rows) == 7
+    tau = [rows[f"interfacial shear stress (kPa) {k}"] for k in (20, 100, 200)]
+    for material in range(3):  # more shear stress, more friction on every surface
+        assert tau[0][material] < shipped[material] < tau[1][material] < tau[2][material]
+    assert module.main(["--sensitivity"]) == 0
+    assert len(capsys.readouterr().out.splitlines()) == 9
