@@ -17,7 +17,8 @@ same configuration is reused (its generation time is then not measured).
 ``--sensitivity`` simulates nothing: it prints the derived kinetic coefficient of each
 paper material at 10 mm/s and 1 N with each of the skin's three free inputs
 (``synth.tribology.SkinTribology``) moved to either end of a plausible range, the others
-as shipped, to show what the derived values hang on.
+as shipped, to show what the derived values hang on; then with the shear stress that
+makes resin's coefficient each measured one of silicone on printed PLA.
 
 These numbers are consequences of the friction model, reported as they come: the model's
 inputs are fixed in ``synth.tribology`` and nothing here chooses them.
@@ -123,6 +124,11 @@ SENSITIVITY = (
 )
 
 
+#: Silicone on printed PLA at 10 mm/s near the skin's pressure: the two measured
+#: silicones and their middle (the shared law's kinetic coefficient, docs/simulator.md).
+PLA_FRICTION = (0.62, 1.15, 1.67)
+
+
 def sensitivity() -> list[tuple[str, list[float]]]:
     """``(label, [mu per paper material])`` as shipped, then per moved input."""
     import dataclasses
@@ -153,6 +159,17 @@ def sensitivity() -> list[tuple[str, list[float]]]:
                 scale = 1e3 if field.endswith("_pa") else 1e-6
                 skin, shown = dataclasses.replace(base, **{field: v}), f"{v / scale:g}"
             rows.append((f"{label} {shown}", mus(skin)))
+    # The shear stress read off silicone on printed PLA instead (the low end, the middle
+    # and the high end of the two measured silicones), resin's texture standing for PLA's:
+    # the stress that makes resin's derived coefficient the measured one.
+    resin = tribology.friction(
+        MATERIALS["resin"].texture, finger, base, speed_m_s=0.010, force_n=1.0
+    )
+    sigma0 = tribology.nominal_pressure_pa(finger, 1.0)
+    for mu in PLA_FRICTION:
+        tau = (mu - resin.hysteresis) * sigma0 / resin.contact_fraction
+        skin = dataclasses.replace(base, interfacial_shear_stress_pa=tau)
+        rows.append((f"resin at PLA's {mu:g}: {tau / 1e3:.0f} kPa", mus(skin)))
     return rows
 
 

@@ -334,9 +334,10 @@ def test_bench_friction_models_sensitivity_moves_each_free_input(monkeypatch, ca
     finger = synth.SynthConfig().finger
     shipped = [tribology.derived_law(MATERIALS[m], finger).kinetic for m in synth.MATERIAL_NAMES]
     assert rows.pop("as shipped") == pytest.approx(shipped, abs=1e-4)
-    assert len(rows) == 7
+    assert len(rows) == 10
+    assert rows["resin at PLA's 1.15: 150 kPa"][0] == pytest.approx(1.15, abs=1e-9)
     tau = [rows[f"interfacial shear stress (kPa) {k}"] for k in (20, 100, 200)]
     for material in range(3):  # more shear stress, more friction on every surface
         assert tau[0][material] < shipped[material] < tau[1][material] < tau[2][material]
     assert module.main(["--sensitivity"]) == 0
-    assert len(capsys.readouterr().out.splitlines()) == 9
+    assert len(capsys.readouterr().out.splitlines()) == 12
