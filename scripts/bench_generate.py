@@ -4,6 +4,7 @@
     python scripts/bench_generate.py --preset quick --modes inline pool
     python scripts/bench_generate.py --keep data      # also keep data/paper-inline
     python scripts/bench_generate.py --modes inline pool --repeat 3
+    python scripts/bench_generate.py --friction-models shared derived --repeat 2
 
 For each execution mode it generates the preset into a temporary store and reports wall
 time, CPU time (this process + its worker processes), trials/s and the peak RSS of the
@@ -13,6 +14,8 @@ same cores (MuJoCo's C++ rollout without its profiling timers, as the simulator 
 it) before the first round and after every round, and compares each generation
 with the mean of the raw runs on either side of its round (``--repeat N`` rounds: the
 medians are reported). The machine may be shared: its speed drifts over minutes.
+``--friction-models shared derived`` generates the preset under each friction model
+(``generate --friction-model``, ``docs/friction.md``) in every mode and round, in turn.
 """
 
 from __future__ import annotations
@@ -65,16 +68,21 @@ def _reset_peak_rss() -> bool:
     return True
 
 
-def bench_generate(name: str, mode: str, keep: Path | None = None) -> dict:
+def bench_generate(
+    name: str, mode: str, keep: Path | None = None, friction_model: str = "shared"
+) -> dict:
+    from synth.dataset_cli import with_friction_model
+
     workers, threads = MODES[mode]
+    config = with_friction_model(preset(name), friction_model)
     with tempfile.TemporaryDirectory(prefix="bench-gen-") as tmp:
         out = Path(tmp) / f"{name}.zarr"
         if keep is not None:
-            out = keep / f"{name}-{mode}"
+            out = keep / f"{name}-{mode}-{friction_model}"
             if out.exists():
                 raise SystemExit(f"--keep: {out} exists; remove it or choose another directory")
         cpu0, t0 = _cpu_s(), time.perf_counter()
-        generate(name, out, workers=workers, threads=threads, progress=sys.stderr.isatty())
+        generate(config, out, workers=workers, threads=threads, progress=sys.stderr.isatty())
         wall, cpu = time.perf_counter() - t0, _cpu_s() - cpu0
         # High-water marks before anything loads the dataset: the generation itself.
         rss_main = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
@@ -85,6 +93,7 @@ def bench_generate(name: str, mode: str, keep: Path | None = None) -> dict:
         assert np.isfinite(data.signals).all()
     return {
         "mode": mode,
+        "friction_model": friction_model,
         "trials": len(data),
         "wall_s": wall,
         "cpu_s": cpu,
@@ -106,6 +115,13 @@ def bench_raw(name: str, n_trials: int | None) -> dict:
     return {"trials": len(specs), "wall_s": wall, "cpu_s": cpu, "trials_per_s": len(specs) / wall}
 
 
+def _label(run: dict, args: argparse.Namespace) -> str:
+    """A run's mode, and its friction model when several are compared."""
+    if len(args.friction_models) == 1:
+        return run["mode"]
+    return f"{run['mode']}, {run['friction_model']} friction"
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--preset", default="paper")
@@ -120,12 +136,20 @@ def main(argv: list[str] | None = None) -> int:
         metavar="N",
         help="rounds of (generation in every mode, raw rollout); ratios are medians (default 1)",
     )
+    parser.add_argument(
+        "--friction-models",
+        nargs="+",
+        default=["shared"],
+        choices=("shared", "derived"),
+        help="generate under each friction model in turn (default: shared)",
+    )
     parser.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     parser.add_argument(
         "--keep",
         metavar="DIR",
         type=Path,
-        help="keep each generated store as DIR/<preset>-<mode> (default: a deleted temp dir)",
+        help="keep each generated store as DIR/<preset>-<mode>-<friction model> (default: a "
+        "deleted temp dir)",
     )
     args = parser.parse_args(argv)
     if args.repeat < 1:
@@ -148,9 +172,9 @@ def main(argv: list[str] | None = None) -> int:
     pooled = False  # a pool ran: the children's peak RSS (not resettable) is its own
     for round_ in range(args.repeat):
         gens = []
-        for mode in args.modes:
+        for mode, model in [(m, f) for m in args.modes for f in args.friction_models]:
             _reset_peak_rss()
-            r = bench_generate(args.preset, mode, args.keep)
+            r = bench_generate(args.preset, mode, args.keep, model)
             r["round"] = round_ + 1
             if pooled:
                 r["peak_rss_mb_largest_worker"] = None
@@ -164,8 +188,8 @@ def main(argv: list[str] | None = None) -> int:
             results["runs"].append(r)
             worker = r["peak_rss_mb_largest_worker"]
             print(
-                f"round {r['round']}: generate {args.preset} [{r['mode']}]: {r['trials']} trials "
-                f"in {r['wall_s']:.1f} s wall, {r['cpu_s']:.1f} s CPU -> "
+                f"round {r['round']}: generate {args.preset} [{_label(r, args)}]: "
+                f"{r['trials']} trials in {r['wall_s']:.1f} s wall, {r['cpu_s']:.1f} s CPU -> "
                 f"{r['trials_per_s']:.1f} trials/s; store {r['store_mb']:.1f} MB "
                 f"({r['raw_mb']:.1f} MB raw); peak RSS during generation main "
                 f"{r['peak_rss_mb_main']:.0f} MB"
@@ -177,9 +201,9 @@ def main(argv: list[str] | None = None) -> int:
     results["raw_runs"] = raws
     trials = raws[0]["trials"]
     summary = {}
-    for mode in args.modes:
-        mine = [r for r in results["runs"] if r["mode"] == mode]
-        summary[mode] = {
+    for label in dict.fromkeys(_label(r, args) for r in results["runs"]):
+        mine = [r for r in results["runs"] if _label(r, args) == label]
+        summary[label] = {
             "wall_s": statistics.median([r["wall_s"] for r in mine]),
             "cpu_ms_per_trial": statistics.median([r["cpu_s"] / r["trials"] * 1e3 for r in mine]),
             "time_ratio": statistics.median([r["time_ratio"] for r in mine]),
@@ -192,7 +216,7 @@ def main(argv: list[str] | None = None) -> int:
         "wall_s_runs": [r["wall_s"] for r in raws],
     }
     # Time of the fastest mode's generation over the raw physics' time (target <= 1.25).
-    best = min(args.modes, key=lambda m: summary[m]["time_ratio"])
+    best = min(summary, key=lambda m: summary[m]["time_ratio"])
     results["time_ratio"] = summary[best]["time_ratio"]
     rounds = f"median of {args.repeat} rounds" if args.repeat > 1 else "one round"
     for mode, m in summary.items():
