@@ -135,15 +135,23 @@ def sensitivity() -> list[tuple[str, list[float]]]:
     finger = synth.SynthConfig().finger
     base = tribology.SILICONE_TRIBOLOGY
 
-    def mus(skin: tribology.SkinTribology) -> list[float]:
-        return [
-            tribology.friction(
-                MATERIALS[m].texture, finger, skin, speed_m_s=0.010, force_n=1.0
-            ).total
+    def parts(skin: tribology.SkinTribology) -> dict[str, tribology.Friction]:
+        return {
+            m: tribology.friction(
+                MATERIALS[m].texture,
+                finger,
+                skin,
+                speed_m_s=tribology.REFERENCE_SPEED_M_S,
+                force_n=1.0,
+            )
             for m in synth.MATERIAL_NAMES
-        ]
+        }
 
-    rows = [("as shipped", mus(base))]
+    def mus(skin: tribology.SkinTribology) -> list[float]:
+        return [f.total for f in parts(skin).values()]
+
+    shipped = parts(base)
+    rows = [("as shipped", [f.total for f in shipped.values()])]
     for label, field, values in SENSITIVITY:
         for v in values:
             if field == "prony":
@@ -156,9 +164,7 @@ def sensitivity() -> list[tuple[str, list[float]]]:
     # The shear stress read off silicone on printed PLA instead (the low end, the middle
     # and the high end of the two measured silicones), resin's texture standing for PLA's:
     # the stress that makes resin's derived coefficient the measured one.
-    resin = tribology.friction(
-        MATERIALS["resin"].texture, finger, base, speed_m_s=0.010, force_n=1.0
-    )
+    resin = shipped["resin"]
     sigma0 = tribology.nominal_pressure_pa(finger, 1.0)
     for mu in PLA_FRICTION:
         tau = (mu - resin.hysteresis) * sigma0 / resin.contact_fraction

@@ -69,7 +69,11 @@ def _reset_peak_rss() -> bool:
 
 
 def bench_generate(
-    name: str, mode: str, keep: Path | None = None, friction_model: str = "shared"
+    name: str,
+    mode: str,
+    keep: Path | None = None,
+    friction_model: str = "shared",
+    keep_suffix: str = "",
 ) -> dict:
     from synth.dataset_cli import with_friction_model
 
@@ -78,7 +82,7 @@ def bench_generate(
     with tempfile.TemporaryDirectory(prefix="bench-gen-") as tmp:
         out = Path(tmp) / f"{name}.zarr"
         if keep is not None:
-            out = keep / f"{name}-{mode}-{friction_model}"
+            out = keep / f"{name}-{mode}{keep_suffix}"
             if out.exists():
                 raise SystemExit(f"--keep: {out} exists; remove it or choose another directory")
         cpu0, t0 = _cpu_s(), time.perf_counter()
@@ -148,8 +152,8 @@ def main(argv: list[str] | None = None) -> int:
         "--keep",
         metavar="DIR",
         type=Path,
-        help="keep each generated store as DIR/<preset>-<mode>-<friction model> (default: a "
-        "deleted temp dir)",
+        help="keep each generated store as DIR/<preset>-<mode> (-<friction model> with "
+        "several; default: a deleted temp dir)",
     )
     args = parser.parse_args(argv)
     if args.repeat < 1:
@@ -174,7 +178,8 @@ def main(argv: list[str] | None = None) -> int:
         gens = []
         for mode, model in [(m, f) for m in args.modes for f in args.friction_models]:
             _reset_peak_rss()
-            r = bench_generate(args.preset, mode, args.keep, model)
+            suffix = f"-{model}" if len(args.friction_models) > 1 else ""
+            r = bench_generate(args.preset, mode, args.keep, model, suffix)
             r["round"] = round_ + 1
             if pooled:
                 r["peak_rss_mb_largest_worker"] = None

@@ -254,11 +254,13 @@ def friction_lines(path: str | Path) -> list[str]:
     Empty for imported recordings, which carry no simulated friction."""
     import synth
     from synth.contact import friction_coefficient
-    from synth.store import KIND_IMPORTED, read_meta, store_kind, stored_config
+    from synth.store import KIND_IMPORTED, config_of, read_meta, store_kind
+    from synth.tribology import EXPONENT_SPEEDS_M_S, REFERENCE_SPEED_M_S
 
-    if store_kind(read_meta(Path(path))) == KIND_IMPORTED:
+    meta = read_meta(Path(path))
+    if store_kind(meta) == KIND_IMPORTED:
         return []
-    config = stored_config(path)
+    config = config_of(Path(path), meta)
     try:
         sim = (
             synth.SynthConfig.from_dict(dict(config.synth)) if config.synth else synth.SynthConfig()
@@ -275,7 +277,8 @@ def friction_lines(path: str | Path) -> list[str]:
     ]
     for name in materials:
         law = sim.materials[name].friction
-        mu = [float(friction_coefficient(law, v, 1.0)) for v in (0.010, 0.006, 0.014)]
+        speeds = (REFERENCE_SPEED_M_S, *EXPONENT_SPEEDS_M_S)
+        mu = [float(friction_coefficient(law, v, 1.0)) for v in speeds]
         lines.append(
             f"  {name:<{width}}{mu[0]:>16.3f}{mu[2] / mu[1]:>12.3f}x{law.velocity_exponent:>12.4f}"
         )
