@@ -82,18 +82,21 @@ def adapt_cosine_head(
 
     ``chunk``: episodes adapted together (None: :func:`head_chunk`, cache-sized).
 
-    The loss's gradient is written out (no autograd graph per step) and Adam is applied
-    to ``W`` and ``b`` of all episodes at once; with ``(E, S, N)`` logits ``z``,
-    ``p = softmax(z)``, ``H = -sum p log p``, the per-example gradient is
-    ``dL/dz = (p - y - lam p (log p + H)) / S`` (cross-entropy plus ``lam`` H, mean over
-    the episode's S = N K support examples). Deterministic: W starts at the prototypes.
+    The loss's gradient is written out (no autograd graph per step) and PyTorch's Adam
+    (its fused kernel: one pass over ``W``, its moments and gradient) updates ``W`` and
+    ``b`` of all episodes at once; with ``(E, S, N)`` cosines ``c``, logits
+    ``z = alpha c + b``, ``p = softmax(z)``, ``H = -sum p log p``, the per-example
+    gradient is ``dL/dz = (p - y - lam p (log p + H)) / S`` (cross-entropy plus ``lam`` H,
+    mean over the episode's S = N K support examples), and with ``g = dL/dz``
+    ``dL/dw_n = alpha / |w_n| (g^T x)_n - alpha (sum_s g_sn c_sn) / |w_n|^2 w_n``: the
+    normalised rows are never formed, the cosines' scale is applied to the small
+    ``(E, S, N)`` tensors. Deterministic: W starts at the prototypes.
     """
     f = torch.as_tensor(np.ascontiguousarray(features, dtype=np.float32))
     out = np.empty(query.shape, dtype=np.int64)
     e_total, n_way, k_shot = support.shape
     n_support = n_way * k_shot
     onehot = torch.eye(n_way).repeat_interleave(k_shot, dim=0)  # (S, N), class-major rows
-    beta1, beta2, eps = 0.9, 0.999, 1e-8
     step_e = (
         head_chunk(n_support, f.shape[1]) if chunk is None else check_int("chunk", chunk, minimum=1)
     )
@@ -105,24 +108,19 @@ def adapt_cosine_head(
             xs = normalise(f[torch.as_tensor(s)].reshape(e, n_support, -1))  # (E, S, D)
             w = normalise(prototypes(f, s))  # (E, N, D)
             b = torch.zeros(e, 1, n_way)
-            mw, vw = torch.zeros_like(w), torch.zeros_like(w)
-            mb, vb = torch.zeros_like(b), torch.zeros_like(b)
-            for step in range(1, steps + 1):
-                norm = w.norm(dim=-1, keepdim=True).clamp_min(1e-12)
-                w_hat = w / norm
-                z = alpha * torch.bmm(xs, w_hat.transpose(1, 2)) + b  # (E, S, N)
-                logp = torch.log_softmax(z, dim=-1)
+            adam = torch.optim.Adam([w, b], lr=lr, betas=(0.9, 0.999), eps=1e-8, fused=True)
+            for _ in range(steps):
+                inv = w.norm(dim=-1).clamp_min(1e-12).reciprocal_()  # 1 / |w_n|, (E, N)
+                cos = torch.bmm(xs, w.transpose(1, 2)).mul_(inv.unsqueeze(1))  # (E, S, N)
+                logp = torch.log_softmax(alpha * cos + b, dim=-1)
                 p = logp.exp()
                 h = -(p * logp).sum(dim=-1, keepdim=True)
                 gz = (p - onehot - lam * p * (logp + h)) / n_support
-                gb = gz.sum(dim=1, keepdim=True)
-                g_hat = alpha * torch.bmm(gz.transpose(1, 2), xs)  # dL/dw_hat (E, N, D)
-                gw = (g_hat - (g_hat * w_hat).sum(-1, keepdim=True) * w_hat) / norm
-                c1, c2 = 1 - beta1**step, 1 - beta2**step
-                for param, grad, m, v in ((w, gw, mw, vw), (b, gb, mb, vb)):
-                    m.mul_(beta1).add_(grad, alpha=1 - beta1)
-                    v.mul_(beta2).addcmul_(grad, grad, value=1 - beta2)
-                    param.addcdiv_(m / c1, (v / c2).sqrt_().add_(eps), value=-lr)
+                radial = (gz * cos).sum(dim=1) * inv * inv * -alpha  # (E, N)
+                gw = torch.bmm(gz.transpose(1, 2) * (alpha * inv).unsqueeze(2), xs)
+                w.grad = gw.addcmul_(w, radial.unsqueeze(2))
+                b.grad = gz.sum(dim=1, keepdim=True)
+                adam.step()
             xq = normalise(f[torch.as_tensor(q)])
             logits = alpha * torch.bmm(xq, normalise(w).transpose(1, 2)) + b
             out[start : start + e] = logits.argmax(dim=-1).numpy()
