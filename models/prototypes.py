@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 import torch
+from torch.optim.adam import adam
 
 from tactile_synth.validation import check_int
 
@@ -36,6 +37,13 @@ EPISODE_CHUNK = 512
 #: one streamed from memory on every step. Episodes never interact, so the chunking
 #: changes no prediction beyond the last bits of a vectorised kernel's tail.
 HEAD_FLOATS = 2**21
+#: The head's Adam settings besides the rate: PyTorch's defaults (the paper gives only the
+#: steps and the rate). The head calls torch.optim's functional Adam with its fused
+#: kernel, which counts the steps itself, so no optimiser object's bookkeeping runs per
+#: step.
+ADAM = dict(
+    fused=True, amsgrad=False, beta1=0.9, beta2=0.999, weight_decay=0.0, eps=1e-8, maximize=False
+)
 
 
 def head_chunk(n_support: int, dim: int, *, cap: int = EPISODE_CHUNK) -> int:
@@ -108,7 +116,10 @@ def adapt_cosine_head(
             xs = normalise(f[torch.as_tensor(s)].reshape(e, n_support, -1))  # (E, S, D)
             w = normalise(prototypes(f, s))  # (E, N, D)
             b = torch.zeros(e, 1, n_way)
-            adam = torch.optim.Adam([w, b], lr=lr, betas=(0.9, 0.999), eps=1e-8, fused=True)
+            params = [w, b]
+            moments = [torch.zeros_like(w), torch.zeros_like(b)]
+            squares = [torch.zeros_like(w), torch.zeros_like(b)]
+            counts = [torch.zeros((), dtype=torch.float32) for _ in params]
             for _ in range(steps):
                 inv = w.norm(dim=-1).clamp_min(1e-12).reciprocal_()  # 1 / |w_n|, (E, N)
                 cos = torch.bmm(xs, w.transpose(1, 2)).mul_(inv.unsqueeze(1))  # (E, S, N)
@@ -118,9 +129,8 @@ def adapt_cosine_head(
                 gz = (p - onehot - lam * p * (logp + h)) / n_support
                 radial = (gz * cos).sum(dim=1) * inv * inv * -alpha  # (E, N)
                 gw = torch.bmm(gz.transpose(1, 2) * (alpha * inv).unsqueeze(2), xs)
-                w.grad = gw.addcmul_(w, radial.unsqueeze(2))
-                b.grad = gz.sum(dim=1, keepdim=True)
-                adam.step()
+                grads = [gw.addcmul_(w, radial.unsqueeze(2)), gz.sum(dim=1, keepdim=True)]
+                adam(params, grads, moments, squares, [], counts, **ADAM, lr=lr)
             xq = normalise(f[torch.as_tensor(q)])
             logits = alpha * torch.bmm(xq, normalise(w).transpose(1, 2)) + b
             out[start : start + e] = logits.argmax(dim=-1).numpy()
