@@ -341,3 +341,11 @@ def test_bench_friction_models_sensitivity_moves_each_free_input(monkeypatch, ca
         assert tau[0][material] < shipped[material] < tau[1][material] < tau[2][material]
     assert module.main(["--sensitivity"]) == 0
     assert len(capsys.readouterr().out.splitlines()) == 12
+
+
+def test_bench_head_shipped_head_predicts_as_the_step_by_step_reference(monkeypatch, capsys):
+    bench = _script("bench_head", monkeypatch)
+    rows = bench.measure(episodes=6, rounds=1, steps=40, seed=3)
+    assert [(r["way"], r["shot"]) for r in rows] == list(bench.SHAPES)
+    assert all(r["predictions_differing"] == 0 and r["predictions"] > 0 for r in rows), rows
+    assert "--steps must be at least 1" in _fails(bench.main, ["--steps", "0"], capsys)
