@@ -23,8 +23,8 @@ import time
 
 import numpy as np
 import torch
-
 from script_args import description, fail
+
 from tactile_synth.validation import int_arg
 
 SHAPES = ((5, 1), (5, 5), (36, 1), (36, 5))
