@@ -38,7 +38,10 @@ the support set (the head's paper settings: 250 Adam steps at lr 1.5e-3, entropy
 0.10). In the closed-set protocol the training classes are the test classes, so its
 meta-training is supervised metric learning on them. ``alpha``, ``meta_iterations`` and
 ``meta_lr`` default to the values ``scripts/tune.py`` chose for this variant;
-``meta_batch`` = 16 tasks per meta-step is a fixed compute budget (not tuned).
+``meta_batch`` = 16 tasks per meta-step is a fixed compute budget (not tuned). The
+fine-tuning of a chunk of episodes is one tensor program (:func:`adapt_mlp_head`): the
+loss's gradient written out (:func:`mlp_head_grads`, checked against autograd by the
+tests) and PyTorch's fused Adam kernel, with no autograd graph per step.
 
 Both take ``ncfs_lam_n`` / ``ncfs_max_iter`` for the AFOP-ML feature optimisation (None:
 AFOP-ML's defaults).
@@ -50,6 +53,9 @@ import itertools
 
 import numpy as np
 import torch
+from torch.optim.adam import adam
+
+from tactile_synth.validation import check_int
 
 from .afop import AFOPML
 from .base import FewShotMethod
@@ -57,7 +63,7 @@ from .cnn import predict_scheduled
 from .episodes import meta_training_episodes
 from .features import pool_of
 from .nets import EpisodeNet, schedule
-from .prototypes import EPISODE_CHUNK, normalise
+from .prototypes import ADAM, EPISODE_CHUNK, normalise
 from .tuned import tuned
 
 HIDDEN = (64, 32)
@@ -67,12 +73,120 @@ LRS = (1.5e-3, 5e-3, 1.5e-2)
 #: Episodes trained together, and support examples in all.
 CHUNK = 512
 ROWS = 16384
+#: Weights (floats, episodes x MLP-and-head parameters) a chunk of the meta variant's
+#: fine-tuning holds at most: a larger chunk spreads each Adam step's fixed cost (a few
+#: dozen small batched kernels) over more episodes, a smaller one keeps the weights, their
+#: gradient and both moments, read and rewritten on every step, nearer the CPU. 2**20
+#: floats (4 MiB per array; about 150 episodes of 64-d features) lies inside the flat
+#: optimum of chunk sizes measured on one thread.
+MLP_FLOATS = 2**20
 
 
 def _mlp(x: torch.Tensor, params: list[torch.Tensor]) -> torch.Tensor:
     """Batched MLP: x ``(E, R, D)``, params ``[W1 (E,D,64), b1 (E,1,64), W2, b2]``."""
     w1, b1, w2, b2 = params
     return torch.bmm(torch.relu(torch.baddbmm(b1, x, w1)), w2) + b2
+
+
+def mlp_head_grads(
+    xs: torch.Tensor,
+    params: list[torch.Tensor],
+    onehot: torch.Tensor,
+    *,
+    alpha: float,
+    lam: float,
+) -> list[torch.Tensor]:
+    """The gradient of every episode's support loss (cross-entropy + ``lam`` times the
+    posteriors' entropy, mean over its S support examples) with respect to its MLP and
+    head ``[W1, b1, W2, b2, W (E,N,32), b (E,1,N)]``, written out (no autograd graph):
+    support ``xs (E, S, D)``, ``onehot (S, N)`` its labels.
+
+    With ``z = MLP(x)``, ``u = z / |z|``, ``v_n = w_n / |w_n|``, cosines ``c = u v^T``,
+    logits ``alpha c + b`` and ``g = dL/dlogits = (p - y - lam p (log p + H)) / S``:
+    ``dL/du = alpha g v`` and ``dL/dv = alpha g^T u``; a normalisation ``u = z / |z|``
+    passes ``(dL/du - (dL/du . u) u) / |z|`` back to ``z``; the two linear layers and
+    the ReLU then pass it back as any MLP does."""
+    w1, b1, w2, b2, w, b = params
+    s = xs.shape[1]
+    z1 = torch.baddbmm(b1, xs, w1)
+    h = torch.relu(z1)
+    z = torch.baddbmm(b2, h, w2)
+    inv_z = z.norm(dim=-1, keepdim=True).clamp_min(1e-12).reciprocal_()
+    u = z * inv_z
+    inv_w = w.norm(dim=-1, keepdim=True).clamp_min(1e-12).reciprocal_()
+    v = w * inv_w
+    logp = torch.log_softmax(alpha * torch.bmm(u, v.transpose(1, 2)) + b, dim=-1)
+    p = logp.exp()
+    entropy = -(p * logp).sum(dim=-1, keepdim=True)
+    g = (p - onehot - lam * p * (logp + entropy)) / s  # (E, S, N)
+    gc = g * alpha
+    gu = torch.bmm(gc, v)
+    gv = torch.bmm(gc.transpose(1, 2), u)
+    gw = (gv - (gv * v).sum(dim=-1, keepdim=True) * v).mul_(inv_w)
+    gz = (gu - (gu * u).sum(dim=-1, keepdim=True) * u).mul_(inv_z)
+    gh = torch.bmm(gz, w2.transpose(1, 2)).mul_(z1 > 0)
+    return [
+        torch.bmm(xs.transpose(1, 2), gh),
+        gh.sum(dim=1, keepdim=True),
+        torch.bmm(h.transpose(1, 2), gz),
+        gz.sum(dim=1, keepdim=True),
+        gw,
+        g.sum(dim=1, keepdim=True),
+    ]
+
+
+def mlp_chunk(d_in: int, n_way: int, *, cap: int = EPISODE_CHUNK) -> int:
+    """Episodes fine-tuned together: at most ``cap``, and at most :data:`MLP_FLOATS`
+    MLP-and-head weights in all (at least one episode)."""
+    per_episode = d_in * HIDDEN[0] + HIDDEN[0] + HIDDEN[0] * HIDDEN[1] + HIDDEN[1]
+    per_episode += n_way * (HIDDEN[1] + 1)
+    return max(1, min(cap, MLP_FLOATS // per_episode))
+
+
+def adapt_mlp_head(
+    x: torch.Tensor,
+    support: np.ndarray,
+    query: np.ndarray,
+    mlp: list[torch.Tensor],
+    *,
+    steps: int,
+    lr: float,
+    lam: float,
+    alpha: float,
+    chunk: int | None = None,
+) -> np.ndarray:
+    """The meta variant's per-episode fine-tuning: predictions ``(E, M)``.
+
+    Per episode a copy of the MLP ``mlp`` (``[W1 (1,D,64), b1, W2, b2]``) and the cosine
+    head (``W`` the normalised prototypes of the projected support, ``b = 0``) are trained
+    together on its support set by ``steps`` Adam steps (PyTorch's defaults besides the
+    rate, its fused kernel), on the gradient :func:`mlp_head_grads` writes out; queries
+    are only forwarded. ``x``: the pool's embeddings ``(P, D)``; ``chunk``: episodes
+    fine-tuned together (None: :func:`mlp_chunk`, cache-sized). Episodes never interact.
+    """
+    out = np.empty(query.shape, dtype=np.int64)
+    e_total, n_way, k_shot = support.shape
+    onehot = torch.eye(n_way).repeat_interleave(k_shot, dim=0)  # (S, N), class-major rows
+    step_e = mlp_chunk(x.shape[1], n_way) if chunk is None else check_int("chunk", chunk, minimum=1)
+    with torch.no_grad():
+        for start in range(0, e_total, step_e):
+            s = support[start : start + step_e]
+            q = query[start : start + step_e]
+            e = s.shape[0]
+            xs = x[torch.as_tensor(s)].reshape(e, n_way * k_shot, -1)
+            body = [p.expand(e, -1, -1).clone() for p in mlp]
+            w = normalise(_mlp(xs, body).reshape(e, n_way, k_shot, -1).mean(dim=2))
+            params = [*body, w, torch.zeros(e, 1, n_way)]
+            moments = [torch.zeros_like(p) for p in params]
+            squares = [torch.zeros_like(p) for p in params]
+            counts = [torch.zeros((), dtype=torch.float32) for _ in params]
+            for _ in range(steps):
+                grads = mlp_head_grads(xs, params, onehot, alpha=alpha, lam=lam)
+                adam(params, grads, moments, squares, [], counts, **ADAM, lr=lr)
+            zq = normalise(_mlp(x[torch.as_tensor(q)], params[:4]))
+            logits = alpha * torch.bmm(zq, normalise(params[4]).transpose(1, 2)) + params[5]
+            out[start : start + e] = logits.argmax(dim=-1).numpy()
+    return out
 
 
 def _head_loss(lam: float) -> object:
@@ -363,32 +477,13 @@ class AFOMLPMLMeta(FewShotMethod):
         features: np.ndarray | None,
     ) -> np.ndarray:
         x = torch.as_tensor(self.afop_.embed(signals, features))
-        out = np.empty(query.shape, dtype=np.int64)
-        _, n_way, k_shot = support.shape
-        target = torch.arange(n_way).repeat_interleave(k_shot)
-        for start in range(0, support.shape[0], EPISODE_CHUNK):
-            s = support[start : start + EPISODE_CHUNK]
-            q = query[start : start + EPISODE_CHUNK]
-            e = s.shape[0]
-            xs = x[torch.as_tensor(s)].reshape(e, n_way * k_shot, -1)
-            params = [p.expand(e, -1, -1).clone().requires_grad_(True) for p in self.mlp_]
-            with torch.no_grad():
-                protos = _mlp(xs, params).reshape(e, n_way, k_shot, -1).mean(dim=2)
-            w = normalise(protos).clone().requires_grad_(True)
-            b = torch.zeros(e, 1, n_way, requires_grad=True)
-            opt = torch.optim.Adam([*params, w, b], lr=self.adapt_lr)
-            tgt = target.expand(e, -1).reshape(-1)
-            for _ in range(self.adapt_steps):
-                z = normalise(_mlp(xs, params))
-                logits = self.alpha * torch.bmm(z, normalise(w).transpose(1, 2)) + b
-                logp = torch.log_softmax(logits, dim=-1)
-                ce = torch.nn.functional.nll_loss(logp.reshape(-1, n_way), tgt)
-                entropy = -(logp.exp() * logp).sum(dim=-1).mean()
-                opt.zero_grad(set_to_none=True)
-                ((ce + self.lam * entropy) * e).backward()  # each episode's own gradient
-                opt.step()
-            with torch.no_grad():
-                zq = normalise(_mlp(x[torch.as_tensor(q)], params))
-                logits = self.alpha * torch.bmm(zq, normalise(w).transpose(1, 2)) + b
-                out[start : start + e] = logits.argmax(dim=-1).numpy()
-        return out
+        return adapt_mlp_head(
+            x,
+            support,
+            query,
+            self.mlp_,
+            steps=self.adapt_steps,
+            lr=self.adapt_lr,
+            lam=self.lam,
+            alpha=self.alpha,
+        )

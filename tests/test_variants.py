@@ -250,3 +250,23 @@ def test_bad_method_option_on_the_command_line_is_one_line(tmp_path):
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("tactile-synth benchmark: error: ")
     assert "--method-option CWT-ResNet-ML:depth: CWT-ResNet-ML has no option 'depth'" in lines[0]
+
+
+def test_meta_fine_tuning_gradient_is_autograds():
+    from models.prototypes import normalise
+
+    gen = torch.Generator().manual_seed(5)
+    e, n, k, d = 3, 4, 2, 7
+    xs = torch.randn(e, n * k, d, generator=gen, dtype=torch.float64)
+    shapes = ((e, d, 64), (e, 1, 64), (e, 64, 32), (e, 1, 32), (e, n, 32), (e, 1, n))
+    params = [0.3 * torch.randn(*s, generator=gen, dtype=torch.float64) for s in shapes]
+    onehot = torch.eye(n, dtype=torch.float64).repeat_interleave(k, dim=0)
+    grads = afo_mlp.mlp_head_grads(xs, params, onehot, alpha=7.0, lam=0.2)
+    leaves = [p.clone().requires_grad_(True) for p in params]
+    z = normalise(afo_mlp._mlp(xs, leaves[:4]))
+    logits = 7.0 * torch.bmm(z, normalise(leaves[4]).transpose(1, 2)) + leaves[5]
+    loss = afo_mlp._head_loss(0.2)(logits, torch.arange(n).repeat_interleave(k).expand(e, -1))
+    loss.backward()
+    for mine, leaf in zip(grads, leaves, strict=True):
+        assert leaf.grad.abs().max() > 0
+        assert torch.allclose(mine, leaf.grad, rtol=1e-10, atol=1e-12)
