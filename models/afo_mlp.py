@@ -29,7 +29,8 @@ cos(z, w_n) + b_n``), with Adam; queries are only forwarded.
   optimisation saw, so their accuracy is optimistic; they only decide how long and how
   fast a support set is fitted.
 - All episodes of a chunk are one batched problem: per-episode weights are ``(E, ...)``
-  tensors multiplied with ``bmm``, so episodes never interact.
+  tensors multiplied with ``bmm``, so episodes never interact; the loss's gradient is
+  written out (:func:`mlp_head_grads`) and PyTorch's fused Adam kernel steps it.
 
 **AFO-MLP-ML+meta** (:class:`AFOMLPMLMeta`, a variant beyond the paper): the same MLP is
 meta-trained with prototypical episodes (5-way 5-shot) on the training classes after the
@@ -99,7 +100,7 @@ def mlp_head_grads(
     """The gradient of every episode's support loss (cross-entropy + ``lam`` times the
     posteriors' entropy, mean over its S support examples) with respect to its MLP and
     head ``[W1, b1, W2, b2, W (E,N,32), b (E,1,N)]``, written out (no autograd graph):
-    support ``xs (E, S, D)``, ``onehot (S, N)`` its labels.
+    support ``xs (E, S, D)``, ``onehot (S, N)`` (or ``(E, S, N)``) its labels.
 
     With ``z = MLP(x)``, ``u = z / |z|``, ``v_n = w_n / |w_n|``, cosines ``c = u v^T``,
     logits ``alpha c + b`` and ``g = dL/dlogits = (p - y - lam p (log p + H)) / S``:
@@ -224,11 +225,16 @@ def episode_net(d_in: int, *, alpha: float, lam: float) -> EpisodeNet:
         z = normalise(_mlp(x, params[:4]))
         return alpha * torch.bmm(z, normalise(params[4]).transpose(1, 2)) + params[5]
 
+    def grads(x: torch.Tensor, params: list[torch.Tensor], target: torch.Tensor) -> list:
+        onehot = torch.nn.functional.one_hot(target, params[4].shape[1]).to(x.dtype)
+        return mlp_head_grads(x, params, onehot, alpha=alpha, lam=lam)
+
     return EpisodeNet(
         init=init,
         gather=lambda x, idx: x[torch.as_tensor(idx)],
         forward=forward,
         loss=_head_loss(lam),
+        grads=grads,
         start=start,
         chunk=CHUNK,
         rows=ROWS,

@@ -136,6 +136,79 @@ def bilstm_forward(x: torch.Tensor, params: list[torch.Tensor]) -> torch.Tensor:
     return torch.bmm(torch.cat([final[:e], final[e:]], dim=-1), w_out) + b_out
 
 
+def bilstm_grads(
+    x: torch.Tensor, params: list[torch.Tensor], target: torch.Tensor
+) -> list[torch.Tensor]:
+    """The gradient of every episode's support cross-entropy (mean over its R examples)
+    with respect to its weights (:func:`_init`'s order), by backpropagation through time
+    written out: one forward pass over the 25 frames keeping each step's gates and cell
+    state, one backward pass over them, no autograd graph. x ``(E, R, T, D)``, target
+    ``(E, R)`` classes.
+
+    Per step, with gates ``i, f, o = sigmoid(.)``, ``g = tanh(.)``,
+    ``c_t = f c_{t-1} + i g`` and ``h_t = o tanh(c_t)``: ``dc_t += dh_t o (1 - tanh^2
+    c_t)``, then ``di = dc_t g``, ``df = dc_t c_{t-1}``, ``do = dh_t tanh(c_t)``,
+    ``dg = dc_t i`` through the gates' derivatives to the pre-activations ``da``;
+    ``dh_{t-1} = da W_hh^T``, ``dc_{t-1} = dc_t f``; the weights' gradients are the
+    products of ``da`` with each step's inputs, summed over the steps."""
+    w_f, h_f, b_f, w_b, h_b, b_b, w_out, b_out = params
+    e, r, t_len = x.shape[:3]
+    n_out = w_out.shape[-1]
+    xs = (x.flatten(1, 2), x.flip(2).flatten(1, 2))  # (E, R*T, D), forward and reversed
+    proj = [
+        torch.baddbmm(b, xi, w).unflatten(1, (r, t_len))
+        for xi, w, b in ((xs[0], w_f, b_f), (xs[1], w_b, b_b))
+    ]
+    w_hh = torch.cat([h_f, h_b])  # (2E, H, 4H)
+    h = x.new_zeros(2 * e, r, HIDDEN)
+    c = x.new_zeros(2 * e, r, HIDDEN)
+    hs, cs, gates, tcs = [h], [c], [], []
+    for f_t, b_t in zip(proj[0].unbind(dim=2), proj[1].unbind(dim=2), strict=True):
+        a = torch.baddbmm(torch.cat([f_t, b_t]), h, w_hh)
+        sig = torch.sigmoid(a[..., : 3 * HIDDEN])
+        g = torch.tanh(a[..., 3 * HIDDEN :])
+        i, f, o = sig.chunk(3, dim=-1)
+        c = f * c + i * g
+        tc = torch.tanh(c)
+        h = o * tc
+        hs.append(h)
+        cs.append(c)
+        gates.append((sig, g))
+        tcs.append(tc)
+    feat = torch.cat([h[:e], h[e:]], dim=-1)  # (E, R, 2H)
+    logits = torch.baddbmm(b_out, feat, w_out)
+    onehot = torch.nn.functional.one_hot(target, n_out).to(logits.dtype)
+    dz = (torch.softmax(logits, dim=-1) - onehot) / r  # (E, R, N)
+    d_w_out = torch.bmm(feat.transpose(1, 2), dz)
+    d_b_out = dz.sum(dim=1, keepdim=True)
+    d_feat = torch.bmm(dz, w_out.transpose(1, 2))
+    dh = torch.cat([d_feat[..., :HIDDEN], d_feat[..., HIDDEN:]])  # (2E, R, H)
+    dc = torch.zeros_like(dh)
+    da_all = x.new_empty(t_len, 2 * e, r, 4 * HIDDEN)
+    d_w_hh = torch.zeros_like(w_hh)
+    w_hh_t = w_hh.transpose(1, 2)
+    for step in range(t_len - 1, -1, -1):
+        sig, g = gates[step]
+        i, f, o = sig.chunk(3, dim=-1)
+        tc = tcs[step]
+        dc = dc + dh * o * (1 - tc * tc)
+        da = da_all[step]
+        d_sig = torch.cat([dc * g, dc * cs[step], dh * tc], dim=-1)
+        torch.mul(d_sig, sig * (1 - sig), out=da[..., : 3 * HIDDEN])
+        torch.mul(dc * i, 1 - g * g, out=da[..., 3 * HIDDEN :])
+        d_w_hh.baddbmm_(hs[step].transpose(1, 2), da)
+        dh = torch.bmm(da, w_hh_t)
+        dc = dc * f
+    grads = []
+    for d, xi in ((da_all[:, :e], xs[0]), (da_all[:, e:], xs[1])):
+        d_proj = d.permute(1, 2, 0, 3).reshape(e, r * t_len, 4 * HIDDEN)  # as xi's rows
+        grads.append(torch.bmm(xi.transpose(1, 2), d_proj))
+        grads.append(None)  # placeholder for the recurrent weights, set below
+        grads.append(d_proj.sum(dim=1, keepdim=True))
+    grads[1], grads[4] = d_w_hh[:e], d_w_hh[e:]
+    return [*grads, d_w_out, d_b_out]
+
+
 class _FrameScaler:
     """Per-dimension z-scoring of frame features with training statistics."""
 
@@ -154,6 +227,7 @@ def _net(d_in: int) -> EpisodeNet:
         init=lambda e, n, gen: _init(e, d_in, n, gen),
         gather=lambda xs, idx: xs[torch.as_tensor(idx)],
         forward=bilstm_forward,
+        grads=bilstm_grads,
         chunk=CHUNK,
         rows=ROWS,
     )

@@ -31,10 +31,12 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 from scipy.signal import resample_poly
+from torch.optim.adam import adam
 
 from synth import SAMPLE_RATE_HZ
 
 from .episodes import EpisodeBatch, sample_episodes
+from .prototypes import ADAM
 
 #: Sample rate of the networks' input (Hz): keeps the band up to 250 Hz.
 INPUT_RATE_HZ = 500
@@ -184,7 +186,9 @@ class EpisodeNet:
     of E episodes' networks, ``gather(x, idx (E, R))`` -> the model input of those trials
     of the pool ``x``, ``forward(input, weights)`` -> logits ``(E, R, N)``, and
     ``loss(logits (E, S, N), target (E, S))`` -> the sum over episodes of each episode's
-    support loss (None: cross-entropy); ``start(weights, support input, N, K)`` -> the
+    support loss (None: cross-entropy); ``grads(input, weights, target)`` -> that loss's
+    gradient with respect to every weight, written out (None: autograd's, through
+    ``forward`` and ``loss``); ``start(weights, support input, N, K)`` -> the
     weights a network starts from, when part of them is set from its support set (a
     prototype head; None: ``init``'s as they are); ``chunk`` and ``rows`` bound the
     episodes trained together (:func:`episodes_per_chunk`)."""
@@ -193,6 +197,9 @@ class EpisodeNet:
     gather: Callable[[torch.Tensor, np.ndarray], torch.Tensor]
     forward: Callable[[torch.Tensor, list[torch.Tensor]], torch.Tensor]
     loss: Callable[[torch.Tensor, torch.Tensor], torch.Tensor] | None = None
+    grads: Callable[[torch.Tensor, list[torch.Tensor], torch.Tensor], list[torch.Tensor]] | None = (
+        None
+    )
     start: Callable[[list[torch.Tensor], torch.Tensor, int, int], list[torch.Tensor]] | None = None
     chunk: int = 64
     rows: int = 3072
@@ -208,7 +215,12 @@ class EpisodeTrainer:
     """The networks of a chunk of E episodes, each trained from a fresh initialisation on
     its own support set only (Adam, full batch), advanced a number of steps at a time and
     asked for its queries' labels in between. Weights are stacked ``(E, ...)``: episodes
-    never interact (each episode's loss has its own weights only)."""
+    never interact (each episode's loss has its own weights only).
+
+    A network whose gradient is written out (``EpisodeNet.grads``) is stepped by
+    torch.optim's functional Adam with its fused kernel (PyTorch's defaults besides the
+    rate, as ``torch.optim.Adam``), without autograd; any other by ``torch.optim.Adam`` on
+    autograd's gradient."""
 
     def __init__(
         self,
@@ -228,14 +240,37 @@ class EpisodeTrainer:
         if net.start is not None:
             with torch.no_grad():
                 params = net.start(params, self.xs, n_way, k_shot)
+        self.target = torch.arange(n_way).repeat_interleave(k_shot).expand(e, -1)
+        self.steps = 0
+        self.lr = lr
+        if net.grads is not None:
+            self.params = params
+            self.moments = [torch.zeros_like(p) for p in params]
+            self.squares = [torch.zeros_like(p) for p in params]
+            self.counts = [torch.zeros((), dtype=torch.float32) for _ in params]
+            return
         self.params = [p.requires_grad_(True) for p in params]
         self.opt = torch.optim.Adam(self.params, lr=lr)
-        self.target = torch.arange(n_way).repeat_interleave(k_shot).expand(e, -1)
         self.loss = net.loss or _cross_entropy
-        self.steps = 0
 
     def advance(self, steps: int) -> None:
         """Train ``steps`` more Adam steps."""
+        if self.net.grads is not None:
+            with torch.no_grad():
+                for _ in range(steps):
+                    grads = self.net.grads(self.xs, self.params, self.target)
+                    adam(
+                        self.params,
+                        grads,
+                        self.moments,
+                        self.squares,
+                        [],
+                        self.counts,
+                        **ADAM,
+                        lr=self.lr,
+                    )
+            self.steps += steps
+            return
         for _ in range(steps):
             loss = self.loss(self.net.forward(self.xs, self.params), self.target)
             self.opt.zero_grad(set_to_none=True)

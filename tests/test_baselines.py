@@ -269,3 +269,82 @@ def test_mamls_embedding_is_its_bodys_per_trial_reading(easy):
     assert whole.shape == (test.size, maml.LAYERS[-1].c_out) and np.all(np.isfinite(whole))
     np.testing.assert_allclose(model.embed(data.signals[test[:3]]), whole[:3], rtol=1e-5, atol=1e-6)
     assert np.ptp(whole, axis=0).max() > 0  # trials differ in it
+
+
+def test_written_out_gradients_are_autograds():
+    # The BiLSTM's backpropagation through time and the AFO-MLP-ML head's gradient, in
+    # float64, against autograd through the networks' forward passes and losses.
+    import torch
+    import torch.nn.functional as F
+
+    from models import afo_mlp, bilstm
+
+    gen = torch.Generator().manual_seed(3)
+    e, r, t, d, n = 3, 4, 6, 5, 3
+    x = torch.randn(e, r, t, d, dtype=torch.float64, generator=gen)
+    params = [3 * p.double() for p in bilstm._init(e, d, n, gen)]
+    params = [p + 0.1 * torch.randn(p.shape, dtype=torch.float64, generator=gen) for p in params]
+    target = torch.randint(0, n, (e, r), generator=gen)
+    nets_ = [
+        (bilstm._net(d), x, params, target),
+    ]
+    head = afo_mlp.episode_net(d, alpha=6.0, lam=0.2)
+    xh = torch.randn(e, 2 * n, d, dtype=torch.float64, generator=gen)
+    ph = [p.double() for p in head.init(e, n, gen)]
+    ph[4] = torch.randn(e, n, 32, dtype=torch.float64, generator=gen)
+    ph[5] = 0.1 * torch.randn(e, 1, n, dtype=torch.float64, generator=gen)
+    nets_.append((head, xh, ph, torch.arange(n).repeat_interleave(2).expand(e, -1)))
+    for net, inputs, weights, tgt in nets_:
+        mine = net.grads(inputs, weights, tgt)
+        leaves = [p.clone().requires_grad_(True) for p in weights]
+        loss_of = net.loss or (
+            lambda z, y: F.cross_entropy(z.reshape(-1, z.shape[-1]), y.reshape(-1)) * z.shape[0]
+        )
+        loss_of(net.forward(inputs, leaves), tgt).backward()
+        for got, leaf in zip(mine, leaves, strict=True):
+            assert leaf.grad.abs().max() > 0
+            torch.testing.assert_close(got, leaf.grad, rtol=1e-10, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", ["CNN", "BiLSTM", "AFO-MLP-ML"])
+def test_networks_trained_together_label_each_episode_as_trained_alone(name):
+    # Episodes never interact: a chunk of stacked networks, each trained from its own
+    # initialisation, labels every query as that episode's network trained on its own
+    # from the same initialisation does (float tolerance: a vectorised kernel may round
+    # an episode's last bits otherwise when it sits elsewhere in a chunk).
+    import torch
+
+    from models import afo_mlp, bilstm
+
+    rng = np.random.default_rng(2)
+    labels = np.repeat(np.arange(8), 6)
+    shape = {"CNN": (4, 1000), "BiLSTM": (bilstm.FRAMES, 12), "AFO-MLP-ML": (24,)}[name]
+    centres = rng.standard_normal((8, *shape))
+    x = torch.as_tensor((centres[labels] + 2.0 * rng.standard_normal((48, *shape))).astype("f4"))
+    net = {
+        "CNN": cnn.NET,
+        "BiLSTM": bilstm._net(12),
+        "AFO-MLP-ML": afo_mlp.episode_net(24, alpha=10.0, lam=0.1),
+    }[name]
+    batch = sample_episodes(labels, n_way=5, k_shot=2, n_query=3, episodes=6, seed=1)
+    lr = 1e-2
+
+    def trainer(sl):
+        gen = torch.Generator().manual_seed(0)
+        return nets.EpisodeTrainer(net, x, batch.support[sl], batch.query[sl], lr=lr, generator=gen)
+
+    together = trainer(slice(None))
+    start = [p.detach().clone() for p in together.params]
+    together.advance(12)
+    pred = together.predict()
+    alone = []
+    for e in range(batch.episodes):
+        one = trainer(slice(e, e + 1))
+        with torch.no_grad():
+            for p, p0 in zip(one.params, start, strict=True):
+                p.copy_(p0[e : e + 1])
+        one.advance(12)
+        alone.append(one.predict()[0])
+    alone = np.stack(alone)
+    assert not np.array_equal(pred, trainer(slice(None)).predict())  # training moved labels
+    assert np.mean(pred != alone) <= 0.01
