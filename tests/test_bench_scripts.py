@@ -372,3 +372,16 @@ def test_bench_head_mlp_fine_tuning_labels_as_the_autograd_path(monkeypatch):
     untrained = adapt_mlp_head(x, support, query, mlp, chunk=7, **{**kw, "steps": 0})
     assert (shipped != untrained).any()  # the steps change the labels
     assert 0.3 < (shipped == truth).mean() < 1.0
+
+
+def test_bench_trainers_times_both_paths_on_the_same_episodes(monkeypatch, capsys):
+    bench = _script("bench_trainers", monkeypatch)
+    rows = bench.measure(episodes=4, rounds=1, seed=1, cells=((5, 1, 3, 3e-2), (5, 2, 3, 3e-2)))
+    assert [(r["network"], r["way"], r["shot"]) for r in rows] == [
+        (n, w, s) for n in ("BiLSTM", "AFO-MLP-ML") for w, s in ((5, 1), (5, 2))
+    ]
+    for r in rows:
+        assert r["autograd_ms_per_episode"] > 0 and r["shipped_ms_per_episode"] > 0
+        assert r["predictions"] == 4 * 5 * 2
+        assert r["predictions_differing"] <= 0.01 * r["predictions"], rows
+    assert "--rounds must be at least 1" in _fails(bench.main, ["--rounds", "0"], capsys)
