@@ -50,11 +50,11 @@ AFOP-ML's defaults).
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 
 import numpy as np
 import torch
-from torch.optim.adam import adam
 
 from tactile_synth.validation import check_int
 
@@ -63,8 +63,8 @@ from .base import FewShotMethod
 from .cnn import predict_scheduled
 from .episodes import meta_training_episodes
 from .features import pool_of
-from .nets import EpisodeNet, schedule
-from .prototypes import ADAM, EPISODE_CHUNK, normalise
+from .nets import EpisodeNet, schedule, train_per_episode
+from .prototypes import EPISODE_CHUNK, normalise
 from .tuned import tuned
 
 HIDDEN = (64, 32)
@@ -144,6 +144,30 @@ def mlp_chunk(d_in: int, n_way: int, *, cap: int = EPISODE_CHUNK) -> int:
     return max(1, min(cap, MLP_FLOATS // per_episode))
 
 
+def meta_net(
+    mlp: list[torch.Tensor],
+    support_shape: tuple[int, int, int],
+    *,
+    alpha: float,
+    lam: float,
+    chunk: int | None = None,
+) -> EpisodeNet:
+    """The meta variant's per-episode network for episodes of ``support_shape`` (E, N,
+    K): :func:`episode_net`'s MLP and head, the MLP starting from a copy of the
+    meta-trained ``mlp`` (``[W1 (1,D,64), b1, W2, b2]``) instead of a fresh draw;
+    ``chunk`` episodes trained together (None: :func:`mlp_chunk`, cache-sized)."""
+    _, n_way, k_shot = support_shape
+    d_in = mlp[0].shape[1]
+    step_e = mlp_chunk(d_in, n_way) if chunk is None else check_int("chunk", chunk, minimum=1)
+
+    def init(e: int, n: int, gen: torch.Generator) -> list[torch.Tensor]:
+        body = [p.expand(e, -1, -1).clone() for p in mlp]
+        return [*body, torch.zeros(e, n, HIDDEN[-1]), torch.zeros(e, 1, n)]
+
+    net = episode_net(d_in, alpha=alpha, lam=lam)
+    return dataclasses.replace(net, init=init, chunk=step_e, rows=step_e * n_way * k_shot)
+
+
 def adapt_mlp_head(
     x: torch.Tensor,
     support: np.ndarray,
@@ -158,36 +182,15 @@ def adapt_mlp_head(
 ) -> np.ndarray:
     """The meta variant's per-episode fine-tuning: predictions ``(E, M)``.
 
-    Per episode a copy of the MLP ``mlp`` (``[W1 (1,D,64), b1, W2, b2]``) and the cosine
-    head (``W`` the normalised prototypes of the projected support, ``b = 0``) are trained
-    together on its support set by ``steps`` Adam steps (PyTorch's defaults besides the
-    rate, its fused kernel), on the gradient :func:`mlp_head_grads` writes out; queries
-    are only forwarded. ``x``: the pool's embeddings ``(P, D)``; ``chunk``: episodes
-    fine-tuned together (None: :func:`mlp_chunk`, cache-sized). Episodes never interact.
+    Per episode a copy of the MLP ``mlp`` and the cosine head (``W`` the normalised
+    prototypes of the projected support, ``b = 0``) are trained together on its support
+    set by ``steps`` Adam steps (:class:`models.nets.EpisodeTrainer`: the gradient
+    :func:`mlp_head_grads` writes out, PyTorch's fused Adam); queries are only forwarded.
+    ``x``: the pool's embeddings ``(P, D)``; ``chunk``: as :func:`meta_net`'s. Episodes
+    never interact.
     """
-    out = np.empty(query.shape, dtype=np.int64)
-    e_total, n_way, k_shot = support.shape
-    onehot = torch.eye(n_way).repeat_interleave(k_shot, dim=0)  # (S, N), class-major rows
-    step_e = mlp_chunk(x.shape[1], n_way) if chunk is None else check_int("chunk", chunk, minimum=1)
-    with torch.no_grad():
-        for start in range(0, e_total, step_e):
-            s = support[start : start + step_e]
-            q = query[start : start + step_e]
-            e = s.shape[0]
-            xs = x[torch.as_tensor(s)].reshape(e, n_way * k_shot, -1)
-            body = [p.expand(e, -1, -1).clone() for p in mlp]
-            w = normalise(_mlp(xs, body).reshape(e, n_way, k_shot, -1).mean(dim=2))
-            params = [*body, w, torch.zeros(e, 1, n_way)]
-            moments = [torch.zeros_like(p) for p in params]
-            squares = [torch.zeros_like(p) for p in params]
-            counts = [torch.zeros((), dtype=torch.float32) for _ in params]
-            for _ in range(steps):
-                grads = mlp_head_grads(xs, params, onehot, alpha=alpha, lam=lam)
-                adam(params, grads, moments, squares, [], counts, **ADAM, lr=lr)
-            zq = normalise(_mlp(x[torch.as_tensor(q)], params[:4]))
-            logits = alpha * torch.bmm(zq, normalise(params[4]).transpose(1, 2)) + params[5]
-            out[start : start + e] = logits.argmax(dim=-1).numpy()
-    return out
+    net = meta_net(mlp, support.shape, alpha=alpha, lam=lam, chunk=chunk)
+    return train_per_episode(net, x, support, query, steps=steps, lr=lr, seed=0)
 
 
 def _head_loss(lam: float) -> object:

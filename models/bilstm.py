@@ -199,14 +199,21 @@ def bilstm_grads(
         d_w_hh.baddbmm_(hs[step].transpose(1, 2), da)
         dh = torch.bmm(da, w_hh_t)
         dc = dc * f
-    grads = []
-    for d, xi in ((da_all[:, :e], xs[0]), (da_all[:, e:], xs[1])):
-        d_proj = d.permute(1, 2, 0, 3).reshape(e, r * t_len, 4 * HIDDEN)  # as xi's rows
-        grads.append(torch.bmm(xi.transpose(1, 2), d_proj))
-        grads.append(None)  # placeholder for the recurrent weights, set below
-        grads.append(d_proj.sum(dim=1, keepdim=True))
-    grads[1], grads[4] = d_w_hh[:e], d_w_hh[e:]
-    return [*grads, d_w_out, d_b_out]
+    # Each direction's pre-activation gradients in its projection's row order (R, then T).
+    d_f, d_b = (
+        d.permute(1, 2, 0, 3).reshape(e, r * t_len, 4 * HIDDEN)
+        for d in (da_all[:, :e], da_all[:, e:])
+    )
+    return [
+        torch.bmm(xs[0].transpose(1, 2), d_f),
+        d_w_hh[:e],
+        d_f.sum(dim=1, keepdim=True),
+        torch.bmm(xs[1].transpose(1, 2), d_b),
+        d_w_hh[e:],
+        d_b.sum(dim=1, keepdim=True),
+        d_w_out,
+        d_b_out,
+    ]
 
 
 class _FrameScaler:

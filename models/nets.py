@@ -31,12 +31,11 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 from scipy.signal import resample_poly
-from torch.optim.adam import adam
 
 from synth import SAMPLE_RATE_HZ
 
 from .episodes import EpisodeBatch, sample_episodes
-from .prototypes import ADAM
+from .prototypes import FusedAdam
 
 #: Sample rate of the networks' input (Hz): keeps the band up to 250 Hz.
 INPUT_RATE_HZ = 500
@@ -242,12 +241,9 @@ class EpisodeTrainer:
                 params = net.start(params, self.xs, n_way, k_shot)
         self.target = torch.arange(n_way).repeat_interleave(k_shot).expand(e, -1)
         self.steps = 0
-        self.lr = lr
         if net.grads is not None:
             self.params = params
-            self.moments = [torch.zeros_like(p) for p in params]
-            self.squares = [torch.zeros_like(p) for p in params]
-            self.counts = [torch.zeros((), dtype=torch.float32) for _ in params]
+            self.adam = FusedAdam(params, lr)
             return
         self.params = [p.requires_grad_(True) for p in params]
         self.opt = torch.optim.Adam(self.params, lr=lr)
@@ -258,17 +254,7 @@ class EpisodeTrainer:
         if self.net.grads is not None:
             with torch.no_grad():
                 for _ in range(steps):
-                    grads = self.net.grads(self.xs, self.params, self.target)
-                    adam(
-                        self.params,
-                        grads,
-                        self.moments,
-                        self.squares,
-                        [],
-                        self.counts,
-                        **ADAM,
-                        lr=self.lr,
-                    )
+                    self.adam.step(self.net.grads(self.xs, self.params, self.target))
             self.steps += steps
             return
         for _ in range(steps):

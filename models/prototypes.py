@@ -46,6 +46,22 @@ ADAM = dict(
 )
 
 
+class FusedAdam:
+    """torch.optim's functional Adam (:data:`ADAM`, its fused kernel) on plain tensors
+    whose gradient the caller computes: ``step(grads)`` updates ``params`` in place, with
+    the moments and step counts kept here."""
+
+    def __init__(self, params: list[torch.Tensor], lr: float) -> None:
+        self.params = params
+        self.lr = lr
+        self.moments = [torch.zeros_like(p) for p in params]
+        self.squares = [torch.zeros_like(p) for p in params]
+        self.counts = [torch.zeros((), dtype=torch.float32) for _ in params]
+
+    def step(self, grads: list[torch.Tensor]) -> None:
+        adam(self.params, grads, self.moments, self.squares, [], self.counts, **ADAM, lr=self.lr)
+
+
 def head_chunk(n_support: int, dim: int, *, cap: int = EPISODE_CHUNK) -> int:
     """Episodes of ``n_support`` support embeddings of ``dim`` values adapted together:
     at most ``cap``, and at most :data:`HEAD_FLOATS` support values in all (at least
@@ -116,10 +132,7 @@ def adapt_cosine_head(
             xs = normalise(f[torch.as_tensor(s)].reshape(e, n_support, -1))  # (E, S, D)
             w = normalise(prototypes(f, s))  # (E, N, D)
             b = torch.zeros(e, 1, n_way)
-            params = [w, b]
-            moments = [torch.zeros_like(w), torch.zeros_like(b)]
-            squares = [torch.zeros_like(w), torch.zeros_like(b)]
-            counts = [torch.zeros((), dtype=torch.float32) for _ in params]
+            opt = FusedAdam([w, b], lr)
             for _ in range(steps):
                 inv = w.norm(dim=-1).clamp_min(1e-12).reciprocal_()  # 1 / |w_n|, (E, N)
                 cos = torch.bmm(xs, w.transpose(1, 2)).mul_(inv.unsqueeze(1))  # (E, S, N)
@@ -129,8 +142,7 @@ def adapt_cosine_head(
                 gz = (p - onehot - lam * p * (logp + h)) / n_support
                 radial = (gz * cos).sum(dim=1) * inv * inv * -alpha  # (E, N)
                 gw = torch.bmm(gz.transpose(1, 2) * (alpha * inv).unsqueeze(2), xs)
-                grads = [gw.addcmul_(w, radial.unsqueeze(2)), gz.sum(dim=1, keepdim=True)]
-                adam(params, grads, moments, squares, [], counts, **ADAM, lr=lr)
+                opt.step([gw.addcmul_(w, radial.unsqueeze(2)), gz.sum(dim=1, keepdim=True)])
             xq = normalise(f[torch.as_tensor(q)])
             logits = alpha * torch.bmm(xq, normalise(w).transpose(1, 2)) + b
             out[start : start + e] = logits.argmax(dim=-1).numpy()

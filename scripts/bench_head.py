@@ -11,7 +11,7 @@ same episodes, and check how many predictions differ.
   386-d (the size of the pool Direct-Prot-ML reads). The two compute the same arithmetic
   in a different order and predict the same classes (the script exits 1 otherwise).
 - ``mlp``: AFO-MLP-ML+meta's fine-tuning of the MLP and the head. The reference
-  (:func:`reference_mlp_head`) differentiates with autograd and steps
+  (:func:`reference_mlp_head`) differentiates the same network with autograd and steps
   ``torch.optim.Adam``; the shipped path (:func:`models.afo_mlp.adapt_mlp_head`) writes
   the gradient out and applies the fused Adam kernel. Features are 64-d (the closed-set
   D the paper preset chooses), the MLP a random ``nn.Linear``-style one. Adam divides
@@ -76,38 +76,16 @@ def reference_head(features, support, query, *, steps=250, lr=1.5e-3, lam=0.10, 
 
 
 def reference_mlp_head(x, support, query, mlp, *, steps=250, lr=1.5e-3, lam=0.10, alpha=10.0):
-    """AFO-MLP-ML+meta's fine-tuning through autograd and ``torch.optim.Adam``, 512
-    episodes at a time."""
-    from models.afo_mlp import _mlp
-    from models.prototypes import normalise
+    """AFO-MLP-ML+meta's fine-tuning through autograd and ``torch.optim.Adam``: the same
+    network and episode chunks (:func:`models.afo_mlp.meta_net`) without its written-out
+    gradient."""
+    import dataclasses
 
-    out = np.empty(query.shape, dtype=np.int64)
-    _, n_way, k_shot = support.shape
-    target = torch.arange(n_way).repeat_interleave(k_shot)
-    for start in range(0, support.shape[0], 512):
-        s, q = support[start : start + 512], query[start : start + 512]
-        e = s.shape[0]
-        xs = x[torch.as_tensor(s)].reshape(e, n_way * k_shot, -1)
-        params = [p.expand(e, -1, -1).clone().requires_grad_(True) for p in mlp]
-        with torch.no_grad():
-            protos = _mlp(xs, params).reshape(e, n_way, k_shot, -1).mean(dim=2)
-        w = normalise(protos).clone().requires_grad_(True)
-        b = torch.zeros(e, 1, n_way, requires_grad=True)
-        opt = torch.optim.Adam([*params, w, b], lr=lr)
-        tgt = target.expand(e, -1).reshape(-1)
-        for _ in range(steps):
-            z = normalise(_mlp(xs, params))
-            logp = torch.log_softmax(alpha * torch.bmm(z, normalise(w).transpose(1, 2)) + b, -1)
-            ce = torch.nn.functional.nll_loss(logp.reshape(-1, n_way), tgt)
-            entropy = -(logp.exp() * logp).sum(dim=-1).mean()
-            opt.zero_grad(set_to_none=True)
-            ((ce + lam * entropy) * e).backward()
-            opt.step()
-        with torch.no_grad():
-            zq = normalise(_mlp(x[torch.as_tensor(q)], params))
-            logits = alpha * torch.bmm(zq, normalise(w).transpose(1, 2)) + b
-            out[start : start + e] = logits.argmax(dim=-1).numpy()
-    return out
+    from models.afo_mlp import meta_net
+    from models.nets import train_per_episode
+
+    net = dataclasses.replace(meta_net(mlp, support.shape, alpha=alpha, lam=lam), grads=None)
+    return train_per_episode(net, x, support, query, steps=steps, lr=lr, seed=0)
 
 
 def random_mlp(d_in: int, seed: int) -> list[torch.Tensor]:
@@ -141,8 +119,18 @@ def episodes_of(n_way: int, k_shot: int, episodes: int, seed: int, dim: int | No
     return features, batch.support, batch.query, batch.query_labels
 
 
-def _accuracy(pred: np.ndarray, truth: np.ndarray) -> float:
-    return round(100.0 * float((pred == truth).mean()), 2)
+def compared(best: dict, out: dict, truth: np.ndarray, episodes: int) -> dict:
+    """The timing and prediction fields of a row comparing two paths on the same
+    episodes: ``best`` (fastest seconds) and ``out`` (predictions) keyed by the two paths'
+    names, the reference's first and ``"shipped"``'s second."""
+    ref, new = best
+    row = {f"{name}_ms_per_episode": round(1e3 * best[name] / episodes, 3) for name in best}
+    row["speedup"] = round(best[ref] / best[new], 2)
+    row["predictions_differing"] = int((out[ref] != out[new]).sum())
+    row["predictions"] = int(out[new].size)
+    for name in best:
+        row[f"{name}_accuracy_pct"] = round(100.0 * float((out[name] == truth).mean()), 2)
+    return row
 
 
 def measure(episodes: int, rounds: int, steps: int, seed: int) -> list[dict]:
@@ -181,13 +169,7 @@ def _row(head, n_way, k_shot, episodes, best, out, truth) -> dict:
         "way": n_way,
         "shot": k_shot,
         "episodes": episodes,
-        "reference_ms_per_episode": round(1e3 * best["reference"] / episodes, 3),
-        "shipped_ms_per_episode": round(1e3 * best["shipped"] / episodes, 3),
-        "speedup": round(best["reference"] / best["shipped"], 2),
-        "predictions_differing": int((out["reference"] != out["shipped"]).sum()),
-        "predictions": int(out["shipped"].size),
-        "reference_accuracy_pct": _accuracy(out["reference"], truth),
-        "shipped_accuracy_pct": _accuracy(out["shipped"], truth),
+        **compared(best, out, truth, episodes),
     }
 
 

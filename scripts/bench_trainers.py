@@ -30,6 +30,7 @@ import time
 
 import numpy as np
 import torch
+from bench_head import compared
 from script_args import description, fail
 
 from tactile_synth.validation import int_arg
@@ -80,7 +81,6 @@ def measure(episodes: int, rounds: int, seed: int, cells=CELLS) -> list[dict]:
                         path_net, x, batch.support, batch.query, steps=steps, lr=lr, seed=seed
                     )
                     best[path] = min(best[path], time.perf_counter() - t0)
-            truth = batch.query_labels
             rows.append(
                 {
                     "network": name,
@@ -88,15 +88,7 @@ def measure(episodes: int, rounds: int, seed: int, cells=CELLS) -> list[dict]:
                     "shot": k_shot,
                     "steps": steps,
                     "episodes": episodes,
-                    "autograd_ms_per_episode": round(1e3 * best["autograd"] / episodes, 3),
-                    "shipped_ms_per_episode": round(1e3 * best["shipped"] / episodes, 3),
-                    "speedup": round(best["autograd"] / best["shipped"], 2),
-                    "predictions_differing": int((out["autograd"] != out["shipped"]).sum()),
-                    "predictions": int(out["shipped"].size),
-                    "autograd_accuracy_pct": round(
-                        100 * float((out["autograd"] == truth).mean()), 2
-                    ),
-                    "shipped_accuracy_pct": round(100 * float((out["shipped"] == truth).mean()), 2),
+                    **compared(best, out, batch.query_labels, episodes),
                 }
             )
     return rows
