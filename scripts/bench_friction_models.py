@@ -1,10 +1,13 @@
 """The measured friction law beside the derived one, on the paper's datasets.
 
     python3 scripts/bench_friction_models.py [--out DIR] [--perturbation] [--json PATH]
+                                             [--models MODEL ...]
     python3 scripts/bench_friction_models.py --sensitivity
 
-For each friction model (``shared``: one measured law for every material; ``derived``:
-each material's law from its surface, ``docs/friction.md``) it generates the paper
+For each contact model (``shared``: one measured law for every material; ``derived``:
+each material's law from its surface, ``docs/friction.md``; ``derived+viscoelastic``:
+the derived laws and a skin answering the texture with its complex modulus,
+``generate --skin-response viscoelastic``; ``--models`` picks some) it generates the paper
 preset into ``DIR/paper-MODEL`` (timed: wall seconds in this process), diagnoses it
 (leave-one-out 1-NN material accuracy from the strain gauges and from the films, on the
 whole window) and runs AFOP-ML's closed-set table (``benchmark closed-set --methods
@@ -12,7 +15,7 @@ AFOP-ML``: its 5-way 1-shot and 36-way 1-shot rows, its chosen D and PVDF share)
 ``--perturbation`` it also generates the perturbation preset and runs the perturbation
 protocol for AFOP-ML (5-way 1-shot: the nominal reference, pooled over the conditions,
 within each condition, enrolled at the nominal condition and tested at the others; and
-the chosen D). Prints one table, the two models side by side. A store already in ``DIR`` of the
+the chosen D). Prints one table, the models side by side. A store already in ``DIR`` of the
 same configuration is reused (its generation time is then not measured).
 
 ``--sensitivity`` simulates nothing: it prints the derived kinetic coefficient of each
@@ -39,7 +42,7 @@ from benchmark.cli import main as cli
 from benchmark.diagnose import diagnose
 from synth import load_dataset, store
 
-MODELS = ("shared", "derived")
+MODELS = ("shared", "derived", "derived+viscoelastic")
 #: The benchmark runs: AFOP-ML only, replacing an earlier result in the same place.
 AFOP = ("--methods", "AFOP-ML", "--overwrite")
 
@@ -59,8 +62,10 @@ def _generate(preset: str, model: str, path: Path) -> float | None:
         done, _ = store.Store.open(path).status()
         if done.all():
             return None
+    friction, _, response = model.partition("+")
+    skin = ["--skin-response", response] if response else []
     start = time.perf_counter()
-    _run(["generate", "--preset", preset, "--friction-model", model, "--out", str(path)])
+    _run(["generate", "--preset", preset, "--friction-model", friction, *skin, "--out", str(path)])
     return time.perf_counter() - start
 
 
@@ -200,6 +205,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--sensitivity", action="store_true", help="the derived friction's free inputs"
     )
+    parser.add_argument(
+        "--models", nargs="+", choices=MODELS, default=list(MODELS), help="the columns"
+    )
     args = parser.parse_args(argv)
     if args.sensitivity:
         import synth
@@ -213,16 +221,17 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    models = list(dict.fromkeys(args.models))
     rows = {}
-    for model in MODELS:
-        print(f"measuring the {model} friction model ...", file=sys.stderr, flush=True)
+    for model in models:
+        print(f"measuring the {model} contact model ...", file=sys.stderr, flush=True)
         rows[model] = measure(out, model, args.perturbation)
-    print(f"{'':<44}{'shared':>12}{'derived':>12}")
+    print(f"{'':<44}" + "".join(f"{m:>22}" for m in models))
     for key, (label, form) in LABELS.items():
-        if key not in rows["shared"]:
+        if key not in rows[models[0]]:
             continue
-        cells = ["reused" if rows[m][key] is None else form.format(rows[m][key]) for m in MODELS]
-        print(f"{label:<44}{cells[0]:>12}{cells[1]:>12}")
+        cells = ["reused" if rows[m][key] is None else form.format(rows[m][key]) for m in models]
+        print(f"{label:<44}" + "".join(f"{c:>22}" for c in cells))
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=2) + "\n")
     return 0

@@ -2,6 +2,7 @@
 
     python3 scripts/bench_texture.py [--seeds 3] [--speeds 6 10 14] [--force 1.0]
                                      [--friction-model shared|derived|both]
+                                     [--skin-response elastic|viscoelastic|both]
                                      [--set SECTION.FIELD=VALUE ...]
                                      [--texture MATERIAL.FIELD=VALUE ...]
 
@@ -16,6 +17,11 @@ the slowest to the fastest speed on every material. Then the same band's RMS of 
 texture's push on the skin (the tangential force ``-slope * F_n`` the simulated contact
 feels, ``Trial.truth["texture_push_n"]``) on the same segments, and the films' RMS per
 unit of it: the input the surface gives and what the finger's mechanics make of it.
+``--skin-response`` chooses how the skin answers the texture
+(``Finger.skin_texture_response``: its relaxed modulus, or the silicone's complex
+modulus at the frequency the texture is passed at); ``both`` measures each friction
+model under each, side by side (JSON keys ``MODEL`` for the elastic skin,
+``MODEL+viscoelastic`` for the other).
 ``--set SECTION.FIELD=VALUE`` measures another configuration (as
 ``tactile-synth calibrate --whatif``), at the films' post-gain ``scripts/calibrate.py
 gain`` sizes for it unless ``--set pvdf.post_gain=G`` holds one.
@@ -259,6 +265,13 @@ def main(argv: list[str] | None = None) -> int:
         "each surface's roughness (synth.tribology), or both side by side (default)",
     )
     parser.add_argument(
+        "--skin-response",
+        choices=("elastic", "viscoelastic", "both"),
+        default="elastic",
+        help="how the skin answers the texture: its relaxed modulus (default), the "
+        "silicone's complex modulus (Finger.skin_texture_response), or both side by side",
+    )
+    parser.add_argument(
         "--transfer",
         type=float,
         nargs="*",
@@ -322,14 +335,22 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     speeds = sorted(args.speeds)
     models = ("shared", "derived") if args.friction_model == "both" else (args.friction_model,)
+    responses = (
+        ("elastic", "viscoelastic") if args.skin_response == "both" else (args.skin_response,)
+    )
     results = {}
-    for model in models:
-        cfg = dataclasses.replace(
-            config, materials=with_friction_model(config.materials, config.finger, model)
-        )
-        print(f"== friction model: {model}")
-        print_friction(cfg, speeds, args.force)
-        results[model] = report(cfg, speeds, args)
+    for response in responses:
+        finger = dataclasses.replace(config.finger, skin_texture_response=response)
+        for model in models:
+            cfg = dataclasses.replace(
+                config,
+                finger=finger,
+                materials=with_friction_model(config.materials, finger, model),
+            )
+            print(f"== friction model: {model}, skin: {response}")
+            print_friction(cfg, speeds, args.force)
+            key = model if response == "elastic" else f"{model}+{response}"
+            results[key] = report(cfg, speeds, args)
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(results, fh)

@@ -50,6 +50,7 @@ from . import texture as texture_mod
 from .config import SynthConfig
 from .materials import FrictionLaw
 from .texture import FeltSurface, LoadedSurface
+from .viscoelastic import SILICONE_PRONY, Viscoelastic
 
 
 @dataclass(frozen=True)
@@ -189,6 +190,13 @@ class ClosedLoop:
         self.texture = texture_mod.texture_table(
             [texture_mod.as_loaded(t.surface) for t in self.trials]
         )
+        # A viscoelastic skin answers the texture through its Prony arms, as recursive
+        # filters at the physics step (synth.kernels.viscoelastic_felt); an elastic one
+        # takes it as the surface has it.
+        self.skin_arms = None
+        if config.finger.skin_texture_response == "viscoelastic":
+            skin = Viscoelastic(config.finger.skin_modulus_pa, SILICONE_PRONY)
+            self.skin_arms = skin.sampled_arms(config.motion.timestep_s)
         # Trials at other forces or speeds plan paths of other lengths; the batch runs as
         # long as its longest window needs, so shorter paths are extended (see _extend).
         n_ref = max(t.x_ref.size for t in self.trials)
@@ -340,6 +348,11 @@ class ClosedLoop:
         z_set = self.z_ref.copy()
         runner = _rollout.Rollout(nthread=nthread if nthread > 1 else 0)
         spec = int(scene_mod.CONTROL_SPEC)
+        # The viscoelastic skin's Prony arms per trial (height, slope) and the step's input
+        # they last saw.
+        n_arms = 0 if self.skin_arms is None else self.skin_arms[0].size
+        skin_state = np.zeros((b, n_arms, 2))
+        skin_last = np.zeros((b, 2))
         for g in range(nseg):
             if g % control_every == 0 and g:
                 # Force loop: integral action on the wrist sensor's reading of the load
@@ -359,6 +372,10 @@ class ClosedLoop:
             # go straight to the output.
             self.texture.felt_into(s_now, v_now, ahead, normal, h, slope)
             height_out[:, g] = h
+            if self.skin_arms is not None:
+                if g == 0:  # the arms start relaxed, at the first step's height and slope
+                    skin_last[:, 0], skin_last[:, 1] = h[:, 0], slope[:, 0]
+                kernels.viscoelastic_felt(h, slope, *self.skin_arms, skin_state, skin_last)
             kernels.controls(
                 h,
                 slope,

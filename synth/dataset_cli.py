@@ -11,6 +11,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+from .finger_config import SKIN_TEXTURE_RESPONSES
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     from tactile_synth.threads import HELP as THREADS_HELP
@@ -55,6 +57,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "(the paper's materials share one measured silicone law), 'derived' derives each "
         "material's from its surface roughness and the skin's viscoelasticity "
         "(docs/friction.md); default: the configured laws",
+    )
+    p.add_argument(
+        "--skin-response",
+        choices=SKIN_TEXTURE_RESPONSES,
+        help="how the skin answers the texture it slides over: 'elastic' with its relaxed "
+        "modulus, 'viscoelastic' with the silicone's complex modulus at the frequency the "
+        "texture is passed at (finger.skin_texture_response, docs/friction.md); default: "
+        "the configured finger's",
     )
     p.add_argument("--shapes", nargs="+", metavar="NAME")
     p.add_argument("--materials", nargs="+", metavar="NAME")
@@ -195,7 +205,9 @@ def config_from_args(args: argparse.Namespace) -> Any:
         config = store.stored_config(args.from_config)
     elif resume:
         if not overrides and not (
-            getattr(args, "finger", None) or getattr(args, "friction_model", None)
+            getattr(args, "finger", None)
+            or getattr(args, "friction_model", None)
+            or getattr(args, "skin_response", None)
         ):
             return None  # the stored grid (of the dataset, or of its unfinished replacement)
         from .generation import check_resume_target
@@ -208,6 +220,8 @@ def config_from_args(args: argparse.Namespace) -> Any:
         config = preset("paper")
     if getattr(args, "finger", None):
         config = with_finger(config, args.finger)
+    if getattr(args, "skin_response", None):
+        config = with_skin_response(config, args.skin_response)
     if getattr(args, "friction_model", None):
         config = with_friction_model(config, args.friction_model)
     if not overrides:
@@ -226,6 +240,18 @@ def with_finger(config: Any, path: str, arg: str = "--finger") -> Any:
 
     synth = SynthConfig.from_dict(dict(config.synth)) if config.synth else SynthConfig()
     return config.replace(synth=apply_finger(synth, path, arg=arg).to_dict())
+
+
+def with_skin_response(config: Any, response: str) -> Any:
+    """The grid ``config`` with its finger's ``skin_texture_response`` set to
+    ``response`` (the defaults where the grid holds no simulator configuration)."""
+    import dataclasses
+
+    from .config import SynthConfig
+
+    synth = SynthConfig.from_dict(dict(config.synth)) if config.synth else SynthConfig()
+    finger = dataclasses.replace(synth.finger, skin_texture_response=response)
+    return config.replace(synth=dataclasses.replace(synth, finger=finger).to_dict())
 
 
 def with_friction_model(config: Any, model: str) -> Any:

@@ -10,6 +10,9 @@ from dataclasses import dataclass
 
 from . import params
 
+#: The skin's answers to the texture (:attr:`Finger.skin_texture_response`).
+SKIN_TEXTURE_RESPONSES: tuple[str, ...] = ("elastic", "viscoelastic")
+
 
 @dataclass(frozen=True)
 class Finger:
@@ -71,6 +74,17 @@ class Finger:
     skin_modulus_pa: float = 0.29e6
     #: Poisson's ratio of silicone (nearly incompressible: 0.48-0.499).
     skin_poisson: float = 0.49
+    #: How the skin answers the texture it slides over (:data:`SKIN_TEXTURE_RESPONSES`).
+    #: ``"elastic"``: with its relaxed modulus at every frequency, the texture's height
+    #: and slope reaching the contact as the surface has them. ``"viscoelastic"``: with
+    #: the silicone's complex modulus ``E*(omega)`` (``synth.viscoelastic.SILICONE_PRONY``
+    #: on ``skin_modulus_pa``), each Prony arm a recursive filter of the height and slope
+    #: the simulated contact meets, step by step (``synth.kernels.viscoelastic_felt``):
+    #: texture passed at ``omega = 2 pi v / lambda`` meets a skin ``|E*(omega)| / E_inf``
+    #: times stiffer, whatever the path planned (docs/friction.md, "The skin's answer to
+    #: the texture"). The default stays elastic: the Prony shape is not measured for
+    #: this skin.
+    skin_texture_response: str = "elastic"
     #: MuJoCo soft-contact parameters of the skin, one set for every material: solref
     #: (time constant s, damping ratio) and solimp (dmin, dmax, width m, midpoint, power).
     #: Fitted by ``scripts/calibrate.py skin`` so that the simulated indentation follows
@@ -150,6 +164,11 @@ class Finger:
         )
         params.below(self, "skin_poisson", 0.5, "an elastic solid")
         params.below(self, "ridge_jitter", 0.5, "ridges must not swap order")
+        if self.skin_texture_response not in SKIN_TEXTURE_RESPONSES:
+            raise ValueError(
+                "Finger.skin_texture_response must be one of "
+                f"{', '.join(SKIN_TEXTURE_RESPONSES)}; got {self.skin_texture_response!r}"
+            )
         n = self.ridges_in_contact
         if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
             raise ValueError(

@@ -322,6 +322,33 @@ def _clamped(pos, last):
 
 
 @numba.njit(cache=True, nogil=True)
+def viscoelastic_felt(h, slope, ratios, decays, gains, arms, last):
+    """The texture's height ``h`` and slope ``slope`` ``(b, k)`` over a period, as a
+    viscoelastic skin answers them, in place: each Prony arm ``j`` of each trial carries
+    its state (``arms[i, j, 0]`` for the height, ``[i, j, 1]`` for the slope), updated
+    every step by ``y = decays[j] y + gains[j] (x - x_prev)`` (``x_prev`` in ``last[i]``,
+    the previous step's input), and the answer is ``x + sum_j ratios[j] y_j``
+    (:meth:`synth.viscoelastic.Viscoelastic.sampled_arms`)."""
+    b, k = h.shape
+    n = ratios.shape[0]
+    for i in range(b):
+        for t in range(k):
+            xh = h[i, t]
+            xs = slope[i, t]
+            dh = xh - last[i, 0]
+            ds = xs - last[i, 1]
+            last[i, 0] = xh
+            last[i, 1] = xs
+            for j in range(n):
+                arms[i, j, 0] = decays[j] * arms[i, j, 0] + gains[j] * dh
+                arms[i, j, 1] = decays[j] * arms[i, j, 1] + gains[j] * ds
+                xh = xh + ratios[j] * arms[i, j, 0]
+                xs = xs + ratios[j] * arms[i, j, 1]
+            h[i, t] = xh
+            slope[i, t] = xs
+
+
+@numba.njit(cache=True, nogil=True)
 def controls(h, slope, normal, xy, z_ref, direction, s_now, v_now, ahead, mz, control, push_out):
     """A period's controls ``(b, k, ncontrol)``: the x/y servo set points ``xy`` ``(b, k,
     2)``, the z set point ``z_ref`` and the specimen's pose, which puts the felt surface

@@ -51,7 +51,7 @@ from scipy.special import erf
 from . import contact, params
 from .finger_config import Finger
 from .materials import FrictionLaw, Material, Texture
-from .viscoelastic import PronyTerm, Viscoelastic
+from .viscoelastic import SILICONE_PRONY, PronyTerm, Viscoelastic
 
 #: Sliding speed the derived law's kinetic coefficient is quoted at (the paper's nominal
 #: 10 mm/s), and the speeds its velocity exponent is fitted between (the paper's range).
@@ -92,11 +92,7 @@ class SkinTribology:
 
 #: Cited values: see docs/friction.md for every source.
 SILICONE_TRIBOLOGY = SkinTribology(
-    prony=(
-        PronyTerm(ratio=0.30, relaxation_time_s=1.0e-4),
-        PronyTerm(ratio=0.20, relaxation_time_s=1.0e-2),
-        PronyTerm(ratio=0.10, relaxation_time_s=1.0),
-    ),
+    prony=SILICONE_PRONY,
     interfacial_shear_stress_pa=5.0e4,
     roughness_cutoff_m=10e-6,
 )

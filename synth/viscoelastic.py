@@ -16,11 +16,16 @@ keeps the compound's relaxation shape.
 
 Where the finger uses it: :mod:`synth.tribology` derives each material's friction from
 the surface's roughness and this modulus at the frequencies the roughness excites,
-``omega = q v`` (wavevector ``q``, sliding speed ``v``).
+``omega = q v`` (wavevector ``q``, sliding speed ``v``); and, with
+``Finger.skin_texture_response = "viscoelastic"``, the skin answers the texture it slides
+over with this modulus (:meth:`Viscoelastic.sampled_arms`, :func:`synth.kernels.viscoelastic_felt`):
+the height and slope the surface imposes at the contact reach the skin's contact force
+through ``E*(omega) / E_inf``, so a texture passed faster meets a stiffer, lossier skin.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -78,3 +83,31 @@ class Viscoelastic:
     def scaled(self, relaxed_modulus_pa: float) -> Viscoelastic:
         """The same compound's relaxation shape at another relaxed modulus."""
         return Viscoelastic(relaxed_modulus_pa, self.terms)
+
+    def sampled_arms(self, step_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The Prony arms as recursive filters of a strain sampled every ``step_s``
+        seconds: ``(ratios, decays, gains)``. Each arm is the high-pass ``i omega tau /
+        (1 + i omega tau)`` of the strain, discretised ramp-invariantly (the strain
+        linear between samples): ``y_n = decay y_(n-1) + gain (x_n - x_(n-1))`` with
+        ``decay = exp(-step / tau)`` and ``gain = tau / step (1 - decay)``, exact for a
+        piecewise-linear strain; the stress over ``E_inf`` is ``x + sum ratio_i y_i``. An
+        arm much faster than the step (``tau << step``) has a gain near 0: it relaxes
+        within a step and adds nothing the samples can carry."""
+        if not step_s > 0:
+            raise ValueError(f"step_s must be > 0; got {step_s!r}")
+        decays = np.array([math.exp(-step_s / t.relaxation_time_s) for t in self.terms])
+        gains = self.times_s / step_s * (1.0 - decays) if self.terms else np.zeros(0)
+        return self.ratios.astype(float), decays, np.asarray(gains, dtype=float)
+
+
+#: The skin compound's relaxation shape, relative to its relaxed modulus: three arms a
+#: decade or two apart, which make the storage modulus of a soft platinum-cure silicone
+#: rise by 60 % from rest to well above a kilohertz (|E*| is 1.23-1.32 times the relaxed
+#: modulus across the films' 20-400 Hz band). A generic shape of the class, not a fit to
+#: a measured table of this skin (docs/friction.md: "Its inputs, and how well each is
+#: known").
+SILICONE_PRONY: tuple[PronyTerm, ...] = (
+    PronyTerm(ratio=0.30, relaxation_time_s=1.0e-4),
+    PronyTerm(ratio=0.20, relaxation_time_s=1.0e-2),
+    PronyTerm(ratio=0.10, relaxation_time_s=1.0),
+)

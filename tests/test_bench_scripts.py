@@ -174,7 +174,7 @@ def test_bench_texture_reports_the_films_and_the_push_they_read(monkeypatch, tmp
         assert table["push_n"]["wood"]["10.0"] > 1.5 * table["push_n"]["aluminum"]["10.0"]
     printed = capsys.readouterr().out
     assert "texture push on the skin" in printed and "films per unit of push" in printed
-    assert "== friction model: derived" in printed and "hysteresis" in printed
+    assert "== friction model: derived, skin: elastic" in printed and "hysteresis" in printed
 
 
 @pytest.mark.parametrize(
@@ -295,7 +295,7 @@ def test_bench_methods_refuses_a_negative_latency_count_naming_it(monkeypatch, c
     assert "error: --latency must be >= 0; got -1" in err
 
 
-def test_bench_friction_models_prints_both_models_side_by_side(monkeypatch, tmp_path, capsys):
+def test_bench_friction_models_prints_the_models_side_by_side(monkeypatch, tmp_path, capsys):
     module = _script("bench_friction_models", monkeypatch)
     records = [
         {"record": "accuracy", "way": 5, "shot": 1, "condition": None, "accuracy": 0.9},
@@ -316,12 +316,15 @@ def test_bench_friction_models_prints_both_models_side_by_side(monkeypatch, tmp_
     monkeypatch.setattr(module, "measure", measure)
     out = tmp_path / "table.json"
     assert module.main(["--out", str(tmp_path / "fm"), "--json", str(out)]) == 0
-    assert seen == [("shared", False), ("derived", False)]
+    assert seen == [("shared", False), ("derived", False), ("derived+viscoelastic", False)]
     printed = capsys.readouterr().out.splitlines()
-    assert printed[0].split() == ["shared", "derived"]
-    assert printed[1].split()[-2:] == ["reused", "61.0"]
-    assert printed[2].split()[-2:] == ["8", "8"] and len(printed) == 3
+    assert printed[0].split() == ["shared", "derived", "derived+viscoelastic"]
+    assert printed[1].split()[-3:] == ["reused", "61.0", "61.0"]
+    assert printed[2].split()[-3:] == ["8", "8", "8"] and len(printed) == 3
     assert json.loads(out.read_text())["derived"]["generate_paper_s"] == 61.0
+    seen.clear()
+    assert module.main(["--out", str(tmp_path / "fm"), "--models", "derived+viscoelastic"]) == 0
+    assert seen == [("derived+viscoelastic", False)]
 
 
 def test_bench_friction_models_sensitivity_moves_each_free_input(monkeypatch, capsys):

@@ -397,18 +397,22 @@ def test_friction_lines_show_the_stored_laws_of_each_friction_model(tmp_path):
     import synth
     from benchmark.diagnose.text import friction_lines
     from synth.contact import friction_coefficient
-    from synth.dataset_cli import with_friction_model
+    from synth.dataset_cli import with_friction_model, with_skin_response
 
     base = GenerationConfig(preset="custom", shapes=SHAPES4, trials_per_class=2)
     rows = {}
     for model in ("shared", "derived"):
         config = with_friction_model(base, model)
+        if model == "derived":
+            config = with_skin_response(config, "viscoelastic")
         store.create(tmp_path / model, config)
         lines = friction_lines(str(tmp_path / model))
         assert lines[0].startswith("skin friction per material")
         laws = synth.SynthConfig.from_dict(dict(config.synth)).materials
+        skin = {"shared": "elastic (its relaxed modulus)", "derived": "viscoelastic (|E*| / E_inf"}
+        assert lines[-1].startswith(f"  skin's answer to the texture: {skin[model]}"), lines[-1]
         rows[model] = {}
-        for line in lines[2:]:
+        for line in lines[2:-1]:
             name, mu, _, exponent = line.split()
             law = laws[name].friction
             assert float(mu) == pytest.approx(float(friction_coefficient(law, 0.01, 1.0)), abs=6e-4)

@@ -370,3 +370,38 @@ def test_a_sinusoidal_surface_peaks_the_films_at_speed_over_wavelength(speed):
         band = (f > 20) & (f < 400)
         peak = f[band][np.argmax(p[band])]
         assert peak == pytest.approx(v / 0.24e-3, rel=0.05), (trial.spec.seed, peak, v / 0.24e-3)
+
+
+def test_a_viscoelastic_skin_meets_the_texture_with_its_complex_modulus():
+    """The same pure sinusoid (slope amplitude 0.02) slid at 10 mm/s, the same seeds, under
+    the elastic and the viscoelastic skin: the texture's push on the skin grows by
+    ``|E*(omega)| / E_inf`` of the silicone at the sinusoid's frequency (1.23 at 20 Hz,
+    1.30 at 170 Hz) within 1.5 %, and the films' reading within 2 % (over 10 seeds each
+    within 0.42 % and 0.54 %)."""
+    from synth.viscoelastic import SILICONE_PRONY, Viscoelastic
+
+    skin = Viscoelastic(1.0, SILICONE_PRONY)
+    for freq in (20.0, 170.0):
+        wavelength = 10e-3 / freq
+        wave = Texture(0.0, 1e-4, (Periodic(wavelength, 0.02 * wavelength / (2 * math.pi)),))
+        elastic = with_material(SynthConfig(), "resin", texture=wave)
+        finger = dataclasses.replace(elastic.finger, skin_texture_response="viscoelastic")
+        sos = signal.butter(
+            4, (0.85 * freq, 1.15 * freq), "bandpass", fs=SAMPLE_RATE_HZ, output="sos"
+        )
+        specs = [TrialSpec("square", "resin", seed=s) for s in range(2)]
+        runs = [
+            simulate_batch(specs, config=c)
+            for c in (elastic, dataclasses.replace(elastic, finger=finger))
+        ]
+        want = abs(complex(skin.complex_modulus_pa(2 * math.pi * freq)))
+        for plain, visco in zip(*runs, strict=True):
+            x, y = plain.truth["finger_x_m"], plain.truth["finger_y_m"]
+            top = np.flatnonzero((np.abs(x) < 5e-3) & (np.abs(y) < 5e-3))
+            seg = slice(top[0], top[-1] + 1)
+            push = [_sos_rms(t.truth["texture_push_n"][seg], sos) for t in (plain, visco)]
+            films = [
+                np.mean([_sos_rms(t.signals[c, seg], sos) for c in (0, 1)]) for t in (plain, visco)
+            ]
+            assert push[1] / push[0] == pytest.approx(want, rel=0.015), (freq, push)
+            assert films[1] / films[0] == pytest.approx(want, rel=0.02), (freq, films)

@@ -621,3 +621,39 @@ def test_the_simulated_signals_do_not_depend_on_the_cpus_vector_instructions():
     assert [len(d) for d in here.split()] == [64, 64, 64]
     assert digest(NPY_DISABLE_CPU_FEATURES=levels[0]) == here
     assert digest(NPY_DISABLE_CPU_FEATURES=" ".join(levels), OPENBLAS_CORETYPE="Nehalem") == here
+
+
+def _viscoelastic_numpy(h, slope, ratios, decays, gains, arms, last):
+    """``kernels.viscoelastic_felt`` as numpy steps, operation for operation."""
+    for t in range(h.shape[1]):
+        x = np.stack([h[:, t], slope[:, t]], axis=1)  # (b, 2)
+        dx = x - last
+        last[:] = x
+        out = x.copy()
+        for j in range(ratios.size):
+            arms[:, j] = decays[j] * arms[:, j] + gains[j] * dx
+            out = out + ratios[j] * arms[:, j]
+        h[:, t], slope[:, t] = out[:, 0], out[:, 1]
+
+
+def test_the_viscoelastic_skin_gives_its_recursions_bits():
+    """The skin's Prony arms run period by period give the bits of the same recursion in
+    numpy, their state carried across periods."""
+    from synth.viscoelastic import SILICONE_PRONY, Viscoelastic
+
+    rng = np.random.default_rng(5)
+    filt = Viscoelastic(0.29e6, SILICONE_PRONY).sampled_arms(5e-4)
+    h0, s0 = rng.normal(size=(3, 40)) * 1e-6, rng.normal(size=(3, 40)) * 0.01
+    got_h, got_s, want_h, want_s = h0.copy(), s0.copy(), h0.copy(), s0.copy()
+    arms_k, last_k = np.zeros((3, 3, 2)), np.stack([h0[:, 0], s0[:, 0]], axis=1)
+    arms_n, last_n = arms_k.copy(), last_k.copy()
+    for start in range(0, 40, 8):
+        period = slice(start, start + 8)
+        a, b = got_h[:, period].copy(), got_s[:, period].copy()
+        kernels.viscoelastic_felt(a, b, *filt, arms_k, last_k)
+        got_h[:, period], got_s[:, period] = a, b
+        c, d = want_h[:, period].copy(), want_s[:, period].copy()
+        _viscoelastic_numpy(c, d, *filt, arms_n, last_n)
+        want_h[:, period], want_s[:, period] = c, d
+    assert got_h.tobytes() == want_h.tobytes() and got_s.tobytes() == want_s.tobytes()
+    assert not np.array_equal(got_h, h0)  # the arms answer the changes

@@ -135,3 +135,38 @@ def test_the_law_rate_term_follows_the_velocity_exponent():
     assert mu[1] / mu[0] == pytest.approx(2**0.1, rel=1e-9)
     with pytest.raises(ValueError, match=r"velocity_exponent must lie in -1\.\.1"):
         synth.materials.FrictionLaw(kinetic=0.8, static=0.9, velocity_exponent=2.0)
+
+
+@pytest.mark.parametrize("freq_hz", [5.0, 20.0, 40.0, 100.0, 170.0])
+def test_the_sampled_prony_arms_answer_a_sinusoid_with_the_complex_modulus(freq_hz):
+    """The Prony arms as recursive filters at the physics step (ramp-invariant) answer a
+    steady sinusoidal strain with ``E*(omega) / E_inf``: within 0.5 % in magnitude and
+    0.01 rad in phase up to 170 Hz, where the 0.5 ms step samples a period 12 times
+    (7e-6 at 5 Hz, 4e-3 at 170 Hz)."""
+    from synth import kernels
+    from synth.viscoelastic import SILICONE_PRONY, Viscoelastic
+
+    skin = Viscoelastic(0.29e6, SILICONE_PRONY)
+    step = 5e-4
+    t = np.arange(round(12.0 / step)) * step  # 12 s: the 1 s arm settles
+    x = np.sin(2 * np.pi * freq_hz * t)[None, :]
+    h, slope = x.copy(), -x.copy()
+    arms, last = np.zeros((1, len(SILICONE_PRONY), 2)), np.array([[x[0, 0], -x[0, 0]]])
+    kernels.viscoelastic_felt(h, slope, *skin.sampled_arms(step), arms, last)
+    assert np.array_equal(slope, -h)  # height and slope go through the same skin
+    late = slice(t.size // 2, None)
+    phasor = np.exp(-2j * np.pi * freq_hz * t[late])
+    gain = np.mean(h[0, late] * phasor) / np.mean(x[0, late] * phasor)
+    want = complex(skin.complex_modulus_pa(2 * np.pi * freq_hz)) / skin.relaxed_modulus_pa
+    assert abs(gain) == pytest.approx(abs(want), rel=5e-3)
+    assert np.angle(gain) == pytest.approx(np.angle(want), abs=0.01)
+
+
+def test_the_skins_answer_to_the_texture_is_named_and_checked():
+    finger = synth.SynthConfig().finger
+    assert finger.skin_texture_response == "elastic"
+    assert dataclasses.replace(finger, skin_texture_response="viscoelastic")
+    with pytest.raises(ValueError, match=r"^Finger.skin_texture_response must be one of elastic"):
+        dataclasses.replace(finger, skin_texture_response="plastic")
+    with pytest.raises(ValueError, match="step_s must be > 0"):
+        tribology.SILICONE_TRIBOLOGY.skin(finger).sampled_arms(0.0)

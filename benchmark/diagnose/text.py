@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -250,8 +251,10 @@ def markdown(diag: Diagnosis, figures: dict[str, str] | None = None) -> str:
 def friction_lines(path: str | Path) -> list[str]:
     """The skin's friction law on each material of the simulated dataset at ``path``, as
     its stored configuration holds it: the kinetic coefficient at 10 mm/s and 1 N, its
-    change from 6 to 14 mm/s and the law's velocity exponent (``docs/friction.md``).
-    Empty for imported recordings, which carry no simulated friction."""
+    change from 6 to 14 mm/s and the law's velocity exponent (``docs/friction.md``); then
+    how the skin answers the texture (``Finger.skin_texture_response``, with the complex
+    modulus over the relaxed one at the films' band edges when viscoelastic). Empty for
+    imported recordings, which carry no simulated friction."""
     import synth
     from synth.contact import friction_coefficient
     from synth.store import KIND_IMPORTED, config_of, read_meta, store_kind
@@ -282,4 +285,16 @@ def friction_lines(path: str | Path) -> list[str]:
         lines.append(
             f"  {name:<{width}}{mu[0]:>16.3f}{mu[2] / mu[1]:>12.3f}x{law.velocity_exponent:>12.4f}"
         )
+    response = sim.finger.skin_texture_response
+    if response == "viscoelastic":
+        from synth.viscoelastic import SILICONE_PRONY, Viscoelastic
+
+        skin = Viscoelastic(1.0, SILICONE_PRONY)
+        ends = [abs(complex(skin.complex_modulus_pa(2 * math.pi * f))) for f in (20.0, 400.0)]
+        lines.append(
+            f"  skin's answer to the texture: viscoelastic (|E*| / E_inf {ends[0]:.2f} at "
+            f"20 Hz, {ends[1]:.2f} at 400 Hz)"
+        )
+    else:
+        lines.append("  skin's answer to the texture: elastic (its relaxed modulus)")
     return lines

@@ -20,7 +20,9 @@ from ..trial import CHANNELS, N_SAMPLES
 #: ``classes``, the grid's classes), no longer the paper's 36 names. Version 12: the
 #: texture's slope turns the specimen under the contact (its push reaches the skin
 #: through the contact itself), so every trial's signals differ from version 11's.
-FORMAT_VERSION: int = 14
+#: Version 15: the finger records how its skin answers the texture
+#: (``Finger.skin_texture_response``).
+FORMAT_VERSION: int = 15
 ATTR_KEY = "tactile_synth"
 #: The two kinds of store (attribute ``kind``; a store without it is simulated).
 KIND_SIMULATED = "simulated"
