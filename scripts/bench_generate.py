@@ -5,6 +5,7 @@
     python scripts/bench_generate.py --keep data      # also keep data/paper-inline
     python scripts/bench_generate.py --modes inline pool --repeat 3
     python scripts/bench_generate.py --friction-models shared derived --repeat 2
+    python scripts/bench_generate.py --friction-models shared derived+viscoelastic --repeat 2
 
 For each execution mode it generates the preset into a temporary store and reports wall
 time, CPU time (this process + its worker processes), trials/s and the peak RSS of the
@@ -15,7 +16,9 @@ it) before the first round and after every round, and compares each generation
 with the mean of the raw runs on either side of its round (``--repeat N`` rounds: the
 medians are reported). The machine may be shared: its speed drifts over minutes.
 ``--friction-models shared derived`` generates the preset under each friction model
-(``generate --friction-model``, ``docs/friction.md``) in every mode and round, in turn.
+(``generate --friction-model``, ``docs/friction.md``) in every mode and round, in turn;
+``MODEL+viscoelastic`` generates it under that friction model with the viscoelastic skin
+(``generate --skin-response viscoelastic``).
 """
 
 from __future__ import annotations
@@ -36,6 +39,10 @@ import numpy as np
 from synth import generate, load_dataset
 from synth.presets import plan, preset
 from tactile_synth.validation import int_arg
+
+#: The contact models ``--friction-models`` compares: a friction model, alone or with the
+#: viscoelastic skin's answer to the texture.
+CONTACT_MODELS = ("shared", "derived", "shared+viscoelastic", "derived+viscoelastic")
 
 MODES = {
     # name: (workers, threads per task)
@@ -75,10 +82,13 @@ def bench_generate(
     friction_model: str = "shared",
     keep_suffix: str = "",
 ) -> dict:
-    from synth.dataset_cli import with_friction_model
+    from synth.dataset_cli import with_friction_model, with_skin_response
 
     workers, threads = MODES[mode]
-    config = with_friction_model(preset(name), friction_model)
+    friction, _, response = friction_model.partition("+")
+    config = with_friction_model(preset(name), friction)
+    if response:
+        config = with_skin_response(config, response)
     with tempfile.TemporaryDirectory(prefix="bench-gen-") as tmp:
         out = Path(tmp) / f"{name}.zarr"
         if keep is not None:
@@ -144,8 +154,9 @@ def main(argv: list[str] | None = None) -> int:
         "--friction-models",
         nargs="+",
         default=["shared"],
-        choices=("shared", "derived"),
-        help="generate under each friction model in turn (default: shared)",
+        choices=CONTACT_MODELS,
+        help="generate under each friction model (MODEL+viscoelastic: with the viscoelastic "
+        "skin) in turn (default: shared)",
     )
     parser.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     parser.add_argument(
