@@ -232,14 +232,22 @@ def config_from_args(args: argparse.Namespace) -> Any:
         raise ValueError(_as_typed(str(exc), overrides)) from None
 
 
+def _with_simulator(config: Any, change: Any) -> Any:
+    """The grid ``config`` with ``change`` (a ``SynthConfig`` to ``SynthConfig``
+    function) applied to its simulator configuration (the defaults where the grid holds
+    none)."""
+    from .config import SynthConfig
+
+    synth = SynthConfig.from_dict(dict(config.synth)) if config.synth else SynthConfig()
+    return config.replace(synth=change(synth).to_dict())
+
+
 def with_finger(config: Any, path: str, arg: str = "--finger") -> Any:
     """The grid ``config`` with the finger file ``path``'s parameters set on its simulator
     configuration (the defaults where the grid holds none)."""
     from .calibration.finger_file import apply_finger
-    from .config import SynthConfig
 
-    synth = SynthConfig.from_dict(dict(config.synth)) if config.synth else SynthConfig()
-    return config.replace(synth=apply_finger(synth, path, arg=arg).to_dict())
+    return _with_simulator(config, lambda synth: apply_finger(synth, path, arg=arg))
 
 
 def with_skin_response(config: Any, response: str) -> Any:
@@ -247,11 +255,11 @@ def with_skin_response(config: Any, response: str) -> Any:
     ``response`` (the defaults where the grid holds no simulator configuration)."""
     import dataclasses
 
-    from .config import SynthConfig
+    def change(synth):
+        finger = dataclasses.replace(synth.finger, skin_texture_response=response)
+        return dataclasses.replace(synth, finger=finger)
 
-    synth = SynthConfig.from_dict(dict(config.synth)) if config.synth else SynthConfig()
-    finger = dataclasses.replace(synth.finger, skin_texture_response=response)
-    return config.replace(synth=dataclasses.replace(synth, finger=finger).to_dict())
+    return _with_simulator(config, change)
 
 
 def with_friction_model(config: Any, model: str) -> Any:
@@ -260,12 +268,12 @@ def with_friction_model(config: Any, model: str) -> Any:
     finger (the defaults where the grid holds none)."""
     import dataclasses
 
-    from .config import SynthConfig
     from .tribology import with_friction_model as under
 
-    synth = SynthConfig.from_dict(dict(config.synth)) if config.synth else SynthConfig()
-    materials = under(synth.materials, synth.finger, model)
-    return config.replace(synth=dataclasses.replace(synth, materials=materials).to_dict())
+    def change(synth):
+        return dataclasses.replace(synth, materials=under(synth.materials, synth.finger, model))
+
+    return _with_simulator(config, change)
 
 
 def _as_typed(message: str, overrides: dict[str, Any]) -> str:

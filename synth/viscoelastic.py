@@ -91,13 +91,12 @@ class Viscoelastic:
         linear between samples): ``y_n = decay y_(n-1) + gain (x_n - x_(n-1))`` with
         ``decay = exp(-step / tau)`` and ``gain = tau / step (1 - decay)``, exact for a
         piecewise-linear strain; the stress over ``E_inf`` is ``x + sum ratio_i y_i``. An
-        arm much faster than the step (``tau << step``) has a gain near 0: it relaxes
-        within a step and adds nothing the samples can carry."""
+        arm faster than the step (``tau < step``) relaxes within it (decay near 0) and
+        answers as a dashpot, ``y ~ tau dx/dt`` (gain near ``tau / step``)."""
         if not step_s > 0:
             raise ValueError(f"step_s must be > 0; got {step_s!r}")
         decays = np.array([math.exp(-step_s / t.relaxation_time_s) for t in self.terms])
-        gains = self.times_s / step_s * (1.0 - decays) if self.terms else np.zeros(0)
-        return self.ratios.astype(float), decays, np.asarray(gains, dtype=float)
+        return self.ratios, decays, self.times_s / step_s * (1.0 - decays)
 
 
 #: The skin compound's relaxation shape, relative to its relaxed modulus: three arms a
