@@ -388,3 +388,18 @@ def test_bench_trainers_times_both_paths_on_the_same_episodes(monkeypatch, capsy
         assert r["predictions"] == 4 * 5 * 2
         assert r["predictions_differing"] <= 0.01 * r["predictions"], rows
     assert "--rounds must be at least 1" in _fails(bench.main, ["--rounds", "0"], capsys)
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--twin-truths", "0"], "--twin-truths must be at least 1"),
+        (["--truths", "3", "--twin-truths", "4"], "--twin-truths (4) must not exceed --truths (3)"),
+    ],
+)
+def test_bench_calibrate_names_a_bad_twin_check_size(argv, message, monkeypatch, capsys):
+    main = _script("bench_calibrate", monkeypatch).main
+    with pytest.raises(SystemExit) as exit_info:
+        main(argv)
+    assert exit_info.value.code == 2
+    assert message in capsys.readouterr().err
