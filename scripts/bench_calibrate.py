@@ -255,24 +255,25 @@ def _twin_check(parameters, values, medians, args, out: Path) -> None:
     print("| hidden vector | recordings | twin | oracle | twin within CI | oracle within CI |")
     print("|---|---|---|---|---|---|")
     within = {"twin": 0, "oracle": 0}
+    distance = {"twin": [], "oracle": []}
     for j, row in enumerate(rows):
         acc_r, ci_r = row["recordings"]
         marks = {}
         for name in within:
-            ok = abs(row[name][0] - acc_r) <= ci_r
+            distance[name].append(abs(row[name][0] - acc_r))
+            ok = distance[name][-1] <= ci_r
             within[name] += ok
             marks[name] = "yes" if ok else "no"
         print(
             f"| {j} | {100 * acc_r:.2f} +- {100 * ci_r:.2f} % | {100 * row['twin'][0]:.2f} % | "
             f"{100 * row['oracle'][0]:.2f} % | {marks['twin']} | {marks['oracle']} |"
         )
-    diffs = [abs(r["twin"][0] - r["recordings"][0]) for r in rows]
-    oracle_diffs = [abs(r["oracle"][0] - r["recordings"][0]) for r in rows]
     print()
     print(
         f"the twin lies within the recordings' 95 % CI in {within['twin']} of {len(rows)} "
         f"stores, the oracle twin in {within['oracle']} of {len(rows)}; mean distance "
-        f"{100 * np.mean(diffs):.2f} pp (twin) and {100 * np.mean(oracle_diffs):.2f} pp "
+        f"{100 * np.mean(distance['twin']):.2f} pp (twin) and "
+        f"{100 * np.mean(distance['oracle']):.2f} pp "
         "(oracle)"
     )
 
