@@ -43,7 +43,6 @@ from .nets import (
     Schedule,
     cnn_forward,
     episode_inputs,
-    first_windows,
     init_cnn,
     resample,
     schedule,
@@ -138,17 +137,12 @@ class CNNBaseline(FewShotMethod):
             NET,
             steps=self.steps,
             lr=self.lr,
-            inputs=lambda: self._windows(small),
+            inputs=lambda: torch.as_tensor(self.scaler_.transform(small)),
             labels=labels,
             seed=self.seed,
             lrs=LRS,
             needed=self.test_cells_,
         )
-
-    def _windows(self, small: np.ndarray) -> torch.Tensor:
-        """The first layer's windows (:func:`models.nets.first_windows`) of resampled
-        signals, z-scored with the training statistics."""
-        return first_windows(torch.as_tensor(self.scaler_.transform(small)), LAYERS[0])
 
     def _predict(
         self,
@@ -157,5 +151,5 @@ class CNNBaseline(FewShotMethod):
         query: np.ndarray,
         features: np.ndarray | None,
     ) -> np.ndarray:
-        x = self._cache.get(signals, lambda s: self._windows(resample(s)))
+        x = self._cache.get(signals, lambda s: torch.as_tensor(self.scaler_.transform(resample(s))))
         return predict_scheduled(NET, x, support, query, self.schedule_, self.seed)

@@ -67,7 +67,6 @@ from .nets import (
     embed_cnn,
     episode_inputs,
     episodes_per_chunk,
-    first_windows,
     holdout_classes,
     init_cnn,
     linear_head,
@@ -328,7 +327,7 @@ class MAML(FewShotMethod):
         small = resample(signals)
         self.scaler_ = ChannelScaler().fit(small)
         self.feature_dim_ = LAYERS[-1].c_out
-        x = first_windows(torch.as_tensor(self.scaler_.transform(small)), LAYERS[0])
+        x = torch.as_tensor(self.scaler_.transform(small))
         held = holdout_classes(labels, fraction=HOLDOUT, seed=self.seed)
         train_idx, val_idx = np.flatnonzero(~held), np.flatnonzero(held)
         x_train, x_val = x[torch.as_tensor(train_idx)], x[torch.as_tensor(val_idx)]
@@ -404,14 +403,10 @@ class MAML(FewShotMethod):
             return embed_cnn(self._inputs(signals)[:, None], self.body_, LAYERS)[:, 0].numpy()
 
     def _inputs(self, signals: np.ndarray) -> torch.Tensor:
-        """The network's input of a pool: resampled, z-scored with the training statistics,
-        as the first layer's windows (:func:`models.nets.first_windows`; prepared once per
-        pool)."""
+        """The network's input of a pool: resampled, z-scored with the training statistics
+        (prepared once per pool)."""
         return self._cache.get(
-            signals,
-            lambda s: first_windows(
-                torch.as_tensor(self.scaler_.transform(resample(s))), LAYERS[0]
-            ),
+            signals, lambda s: torch.as_tensor(self.scaler_.transform(resample(s)))
         )
 
     def _predict(

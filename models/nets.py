@@ -122,32 +122,14 @@ def init_cnn(
     return params
 
 
-def first_windows(x: torch.Tensor, layer: ConvLayer) -> torch.Tensor:
-    """The input windows of a CNN's first convolution ``layer`` for a pool of trials:
-    ``(P, C, T)`` -> ``(P, C * kernel, T1)``, row ``c * kernel + j`` holding tap ``j`` of
-    channel ``c`` at each of the layer's ``T1`` output positions (the padding and stride
-    of :func:`torch.nn.functional.conv1d` with ``layer.padding``).
-
-    The per-episode CNNs read a pool through these windows (:func:`embed_cnn`): the raw
-    signals never change during training, so the first layer becomes one batched matrix
-    product per step, and its weight gradient another, instead of a grouped convolution
-    of four input channels and stride 8 (the costliest layer as a convolution on a CPU)."""
-    if x.ndim != 3 or x.shape[1] != layer.c_in:
-        raise ValueError(f"x must be (trials, {layer.c_in}, samples); got {tuple(x.shape)}")
-    p = layer.padding
-    win = F.pad(x, (p, p)).unfold(-1, layer.kernel, layer.stride)  # (P, C, T1, k)
-    return win.transpose(-1, -2).reshape(x.shape[0], layer.c_in * layer.kernel, -1).contiguous()
-
-
 def cnn_forward(
     x: torch.Tensor, params: list[torch.Tensor], layers: Sequence[ConvLayer]
 ) -> torch.Tensor:
     """Per-episode CNNs on per-episode inputs.
 
-    x: ``(R, E, C * kernel, T1)``, the first layer's windows (:func:`first_windows`) of
-    R examples of each of E episodes; params from :func:`init_cnn` with ``copies = E``.
-    Returns logits ``(R, E, n_out)``. Episode e's examples only meet episode e's weights
-    (a batched matrix product over episodes, then grouped convolutions, ``groups = E``).
+    x: ``(R, E, C, T)`` (R examples of each of E episodes); params from :func:`init_cnn`
+    with ``copies = E``. Returns logits ``(R, E, n_out)``. Episode e's examples only meet
+    episode e's weights (grouped convolutions, ``groups = E``).
     """
     return linear_head(embed_cnn(x, params, layers), params[-2], params[-1])
 
@@ -158,29 +140,14 @@ def linear_head(emb: torch.Tensor, w_out: torch.Tensor, b_out: torch.Tensor) -> 
     return torch.einsum("rec,eco->reo", emb, w_out) + b_out[None]
 
 
-def _pool_relu(h: torch.Tensor, layer: ConvLayer) -> torch.Tensor:
-    if layer.pool > 1:
-        # max-pool (as F.max_pool1d, tail dropped), before the ReLU (the two commute):
-        # a max over a reshaped axis has the cheapest backward (one index scatter) on
-        # these many-group tensors.
-        t = h.shape[-1] // layer.pool * layer.pool
-        h = h[..., :t].unflatten(-1, (t // layer.pool, layer.pool)).max(dim=-1).values
-    return F.relu(h)
-
-
 def embed_cnn(
     x: torch.Tensor, params: list[torch.Tensor], layers: Sequence[ConvLayer]
 ) -> torch.Tensor:
     """The time-averaged features of the last conv layer ``(R, E, c_last)`` (the CNN
-    without its linear head), from the first layer's windows ``x`` (:func:`cnn_forward`)."""
+    without its linear head)."""
     r, e = x.shape[:2]
-    first = layers[0]
-    # The first layer: episode e's weights (o, C * kernel) times its examples' windows.
-    w, b = params[0], params[1]
-    h = torch.matmul(w.reshape(e, first.c_out, -1), x) + b[..., None]  # (R, E, o, T1)
-    h = _pool_relu(h, first)
-    h = h.reshape(r, e * first.c_out, h.shape[-1])
-    for i, layer in enumerate(layers[1:], start=1):
+    h = x.reshape(r, e * x.shape[2], x.shape[3])
+    for i, layer in enumerate(layers):
         w, b = params[2 * i], params[2 * i + 1]
         h = F.conv1d(
             h,
@@ -190,7 +157,13 @@ def embed_cnn(
             padding=layer.padding,
             groups=e,
         )
-        h = _pool_relu(h, layer)
+        if layer.pool > 1:
+            # max-pool (as F.max_pool1d, tail dropped), before the ReLU (the two commute):
+            # a max over a reshaped axis has the cheapest backward (one index scatter) on
+            # these many-group tensors.
+            t = h.shape[-1] // layer.pool * layer.pool
+            h = h[..., :t].unflatten(-1, (t // layer.pool, layer.pool)).max(dim=-1).values
+        h = F.relu(h)
     return h.mean(dim=-1).reshape(r, e, layers[-1].c_out)
 
 
@@ -202,9 +175,8 @@ def episodes_per_chunk(support_rows: int, *, cap: int, rows: int) -> int:
 
 
 def episode_inputs(x: torch.Tensor, index: np.ndarray) -> torch.Tensor:
-    """Gather ``(E, R)`` trial indices of a pool ``(P, ...)`` into ``(R, E, ...)``, laid out
-    contiguously (training reads it at every step)."""
-    return x[torch.as_tensor(np.ascontiguousarray(np.asarray(index).T))]
+    """Gather ``(E, R)`` trial indices of a pool ``(P, C, T)`` into ``(R, E, C, T)``."""
+    return x[torch.as_tensor(index)].transpose(0, 1)
 
 
 @dataclass(frozen=True)

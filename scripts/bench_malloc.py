@@ -26,13 +26,13 @@ WORK = {
     "cnn": (
         """
 import torch, torch.nn.functional as F
-from models.nets import init_cnn, cnn_forward, first_windows
+from models.nets import init_cnn, cnn_forward
 from models.cnn import LAYERS
 """,
         """
 torch.manual_seed(0)
 for e, r in ((64, 25), (17, 180), (64, 5), (64, 36)):
-    x = first_windows(torch.randn(r * e, 4, 1000), LAYERS[0]).reshape(r, e, -1, 125)
+    x = torch.randn(r, e, 4, 1000)
     gen = torch.Generator().manual_seed(0)
     params = [p.requires_grad_(True) for p in init_cnn(LAYERS, 5, gen, copies=e)]
     target = torch.randint(0, 5, (r * e,))

@@ -240,7 +240,7 @@ def test_maml_first_inner_step_moves_the_zero_head_alone_as_the_full_gradient_do
     import torch.nn.functional as F
 
     gen = torch.Generator().manual_seed(5)
-    x = nets.first_windows(torch.randn(40, 4, 1000, generator=gen), maml.LAYERS[0])
+    x = torch.randn(40, 4, 1000, generator=gen)
     body = nets.init_cnn(maml.LAYERS, 5, gen, copies=1)
     labels = np.repeat(np.arange(8), 5)
     batch = sample_episodes(labels, n_way=4, k_shot=2, n_query=1, episodes=3, seed=1)
@@ -269,50 +269,6 @@ def test_mamls_embedding_is_its_bodys_per_trial_reading(easy):
     assert whole.shape == (test.size, maml.LAYERS[-1].c_out) and np.all(np.isfinite(whole))
     np.testing.assert_allclose(model.embed(data.signals[test[:3]]), whole[:3], rtol=1e-5, atol=1e-6)
     assert np.ptp(whole, axis=0).max() > 0  # trials differ in it
-
-
-@pytest.mark.parametrize("layers", ["CNN", "MAML"])
-def test_the_first_layers_windows_give_the_grouped_convolution(layers):
-    # embed_cnn reads its first layer as a matrix product over the windows of the signals:
-    # its output and its weights' gradients are those of the per-episode CNN written
-    # with grouped convolutions throughout (float tolerance: the sums run in another order).
-    import torch
-    import torch.nn.functional as F
-
-    stack = {"CNN": cnn.LAYERS, "MAML": maml.LAYERS}[layers]
-    gen = torch.Generator().manual_seed(4)
-    r, e = 3, 5
-    signals = torch.randn(r * e, 4, 1000, generator=gen)
-    params = [p.requires_grad_(True) for p in nets.init_cnn(stack, 3, gen, copies=e)]
-    index = np.arange(r * e).reshape(e, r)
-
-    def grouped(x):  # (R, E, C, T), every layer a grouped convolution
-        h = x.reshape(r, -1, x.shape[-1])
-        for i, layer in enumerate(stack):
-            w, b = params[2 * i], params[2 * i + 1]
-            h = F.conv1d(
-                h,
-                w.reshape(e * layer.c_out, layer.c_in, layer.kernel),
-                b.reshape(-1),
-                stride=layer.stride,
-                padding=layer.padding,
-                groups=e,
-            )
-            h = F.relu(h)
-        return h.mean(dim=-1).reshape(r, e, -1)
-
-    want = grouped(nets.episode_inputs(signals, index))
-    want_grads = torch.autograd.grad(want.square().sum(), params[:-2])
-    got = nets.embed_cnn(
-        nets.episode_inputs(nets.first_windows(signals, stack[0]), index), params, stack
-    )
-    got_grads = torch.autograd.grad(got.square().sum(), params[:-2])
-    torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-5)
-    for g, w in zip(got_grads, want_grads, strict=True):
-        assert w.abs().max() > 0
-        torch.testing.assert_close(g, w, rtol=1e-4, atol=1e-4 * float(w.abs().max()))
-    with pytest.raises(ValueError, match="x must be"):
-        nets.first_windows(signals[:, :3], stack[0])
 
 
 def test_written_out_gradients_are_autograds():
@@ -365,8 +321,6 @@ def test_networks_trained_together_label_each_episode_as_trained_alone(name):
     shape = {"CNN": (4, 1000), "BiLSTM": (bilstm.FRAMES, 12), "AFO-MLP-ML": (24,)}[name]
     centres = rng.standard_normal((8, *shape))
     x = torch.as_tensor((centres[labels] + 2.0 * rng.standard_normal((48, *shape))).astype("f4"))
-    if name == "CNN":
-        x = nets.first_windows(x, cnn.LAYERS[0])
     net = {
         "CNN": cnn.NET,
         "BiLSTM": bilstm._net(12),
